@@ -1,0 +1,1 @@
+//! Degrees of freedom: which global DOF belongs to which node component.

@@ -1,0 +1,51 @@
+//! Sparse linear solvers for the tangent system.
+//!
+//! Contract: the sparsity pattern ([`SparsityPattern`], lower triangle in CSC) is fixed for a
+//! model. [`LinearSolver::analyze`] does the ordering and symbolic factorisation once;
+//! [`LinearSolver::factorize`] is called every Newton iteration with new values in the same
+//! pattern, and [`LinearSolver::solve_in_place`] solves with the last factorisation.
+
+mod pattern;
+pub use pattern::SparsityPattern;
+
+/// How the last numeric factorisation was done.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum FactorMethod {
+    /// Cholesky LLᵀ (the matrix was positive definite).
+    Cholesky,
+    /// Symmetric indefinite LDLᵀ with Bunch-Kaufman pivoting.
+    Ldlt,
+    /// General LU (last resort).
+    Lu,
+}
+
+/// Facts about a numeric factorisation, returned as data (never printed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct FactorInfo {
+    /// Which factorisation succeeded.
+    pub method: FactorMethod,
+    /// Number of negative pivots (eigenvalues) when known: 0 for Cholesky, the inertia count for
+    /// LDLᵀ. A positive count signals an unstable (e.g. buckling) equilibrium.
+    pub negative_pivots: Option<usize>,
+}
+
+/// Errors of the linear solvers.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum LinSolveError {
+    /// `factorize`/`solve` before `analyze`, or values of the wrong length.
+    #[error("linear solver used out of order or with the wrong size: {0}")]
+    Usage(String),
+    /// Every factorisation tried failed: the tangent is singular.
+    #[error("the tangent matrix is singular (all factorisations failed; last: {0})")]
+    Singular(String),
+}
+
+/// A sparse direct solver with symbolic/numeric separation.
+pub trait LinearSolver: Send {
+    /// Orders and analyses the pattern (once per model).
+    fn analyze(&mut self, pattern: &SparsityPattern) -> Result<(), LinSolveError>;
+    /// Numeric factorisation of the matrix with these values (ordered as `pattern.row_idx`).
+    fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError>;
+    /// Overwrites `rhs` with the solution of the last factorised system.
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError>;
+}

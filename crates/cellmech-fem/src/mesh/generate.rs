@@ -1,0 +1,1 @@
+//! Built-in mesh generators. TODO(helper: generators): box and cubed-sphere meshes.

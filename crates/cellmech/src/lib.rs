@@ -1,0 +1,1 @@
+//! The cellmech domain layer.
