@@ -2,6 +2,7 @@
 //! tangent. Kernels never allocate and never see global data.
 
 pub mod hex8;
+pub mod spring;
 
 /// A kernel could not evaluate the element (the solver reacts by cutting the step).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

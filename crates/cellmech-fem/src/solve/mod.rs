@@ -1,1 +1,24 @@
-//! TODO
+//! The nonlinear solver: full Newton–Raphson with line search inside automatic load
+//! stepping with cutback, over a sequence of analysis steps.
+//!
+//! A [`Problem`] owns the terms, the assembler (pattern built once), the linear solver
+//! (symbolic factorisation done once) and the state. [`Problem::run_step`] advances one
+//! [`Step`] from pseudo-time 0 to 1 in increments, reporting every iteration and every
+//! converged increment to an [`Observer`]. The engine never prints.
+
+mod control;
+mod error;
+mod newton;
+mod observer;
+mod problem;
+mod step;
+
+pub use control::{Convergence, StepControl};
+pub use error::{FailureReason, SolveError};
+pub use newton::IterationReport;
+pub use observer::{IncrementReport, NullObserver, Observer};
+pub use problem::Problem;
+pub use step::{Motion, NodalLoad, Step};
+
+#[cfg(test)]
+mod tests;

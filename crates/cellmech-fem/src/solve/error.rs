@@ -1,0 +1,75 @@
+//! Why an increment or an analysis failed.
+
+use crate::assembly::AssemblyError;
+use crate::linsolve::LinSolveError;
+
+/// Why one Newton increment failed (the stepper reacts by cutting the increment).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FailureReason {
+    /// An element could not be evaluated (e.g. inverted).
+    #[error("{0}")]
+    Element(#[from] AssemblyError),
+    /// The tangent could not be factorised.
+    #[error("{0}")]
+    Singular(#[from] LinSolveError),
+    /// The residual grew beyond the divergence limit.
+    #[error("Newton diverged at iteration {iteration}: |R|/|R0| = {ratio:.3e}")]
+    Diverged {
+        /// Iteration at which divergence was detected.
+        iteration: usize,
+        /// ‖Rᵢ‖/‖R₀‖.
+        ratio: f64,
+    },
+    /// The iteration limit was reached before convergence.
+    #[error("no convergence in {iterations} iterations: |R|/scale = {residual:.3e}, energy ratio = {energy:.3e}")]
+    MaxIterations {
+        /// Iterations done.
+        iterations: usize,
+        /// Last relative residual.
+        residual: f64,
+        /// Last relative energy norm.
+        energy: f64,
+    },
+    /// A residual or solution value was NaN or infinite.
+    #[error("non-finite residual or solution at iteration {iteration}")]
+    NotFinite {
+        /// Iteration at which it happened.
+        iteration: usize,
+    },
+    /// A term's augmentation or active-set loop did not settle.
+    #[error("{0}")]
+    Unsettled(String),
+}
+
+/// Why an analysis stopped. Every increment converged before it has been reported.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    /// The increment was cut below the minimum.
+    #[error(
+        "step '{step}' stopped at step time {time:.6}: the increment was cut to {increment:.3e}, \
+         below the minimum {min_increment:.3e}; last failure: {reason}"
+    )]
+    IncrementTooSmall {
+        /// Step name.
+        step: String,
+        /// Last converged step time (0..1).
+        time: f64,
+        /// The increment that failed last.
+        increment: f64,
+        /// The configured minimum.
+        min_increment: f64,
+        /// Why the last attempt failed.
+        reason: FailureReason,
+    },
+    /// The step's input is inconsistent with the model.
+    #[error("step '{step}': {message}")]
+    InvalidStep {
+        /// Step name.
+        step: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The linear solver could not analyse the pattern.
+    #[error("linear solver: {0}")]
+    LinearSolver(#[from] LinSolveError),
+}

@@ -1,0 +1,278 @@
+//! One load increment solved by full Newton–Raphson with a line search.
+//!
+//! Iteration 0 linearises at the converged start state and applies the whole prescribed
+//! increment through `K_fp·Δu_p` (a consistent predictor: no element is distorted by moving
+//! boundary nodes alone). Later iterations solve `K δ = f_ext − r_int` on the free DOFs with
+//! the prescribed DOFs fixed, then search along δ when the residual's projection on δ has
+//! not dropped enough. Convergence needs both the residual and the energy criterion.
+
+use super::control::{Convergence, StepControl};
+use super::error::FailureReason;
+use super::observer::Observer;
+use super::problem::Problem;
+use crate::assembly::AssemblyOutput;
+
+/// One Newton iteration, for convergence tables.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct IterationReport {
+    /// Iteration number within the increment (0 = predictor).
+    pub iteration: usize,
+    /// ‖R_free‖ / force scale after the update.
+    pub residual_ratio: f64,
+    /// |s δ·R| / |δ₀·R₀| after the update.
+    pub energy_ratio: f64,
+    /// The force scale (nN) the residual is measured against.
+    pub force_scale: f64,
+    /// Line-search step length used (1 = full Newton step).
+    pub line_search: f64,
+    /// ‖δ‖ (µm) of the iteration's correction.
+    pub correction_norm: f64,
+}
+
+fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
+    v.iter()
+        .zip(mask)
+        .filter(|(_, &m)| m == want)
+        .map(|(x, _)| x * x)
+        .sum::<f64>()
+        .sqrt()
+}
+
+fn dot_free(a: &[f64], b: &[f64], prescribed: &[bool]) -> f64 {
+    a.iter()
+        .zip(b)
+        .zip(prescribed)
+        .filter(|(_, &p)| !p)
+        .map(|((x, y), _)| x * y)
+        .sum()
+}
+
+impl Problem {
+    /// Solves the increment to the prescribed values `target_u` (prescribed DOFs) and loads
+    /// `target_f`. On success `self.u`, `self.residual` and `self.energy` hold the converged
+    /// state and the iteration count is returned; on failure the state is garbage and the
+    /// caller restores it.
+    pub(super) fn newton_increment(
+        &mut self,
+        target_u: &[f64],
+        target_f: &[f64],
+        control: &StepControl,
+        observer: &mut dyn Observer,
+    ) -> Result<usize, FailureReason> {
+        let conv = &control.convergence;
+        let n = self.u.len();
+        self.f_ext.copy_from_slice(target_f);
+        self.work.history.clear();
+        for d in 0..n {
+            self.work.du_prescribed[d] = if self.prescribed[d] {
+                target_u[d] - self.u[d]
+            } else {
+                0.0
+            };
+        }
+        // Iteration 0: linearise at the converged start state.
+        self.assemble_full(true)?;
+        for d in 0..n {
+            self.work.rhs[d] = if self.prescribed[d] {
+                self.work.du_prescribed[d]
+            } else {
+                self.f_ext[d] - self.residual[d] - self.work.predictor[d]
+            };
+        }
+        let r0 = norm_where(&self.work.rhs, &self.prescribed, false);
+        let mut scale_floor = r0.max(norm_where(&self.f_ext, &self.prescribed, false));
+        self.factorize_and_solve()?;
+        let energy0 = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+        let mut step_length = 1.0;
+        for iteration in 0..=conv.max_iterations {
+            // Update and evaluate at the new point (tangent included for the next solve).
+            if iteration == 0 {
+                for d in 0..n {
+                    self.u[d] += self.work.delta[d];
+                }
+                self.assemble_full(false)?;
+            } else {
+                step_length = self.line_search(conv)?;
+            }
+            let (residual_ratio, energy_ratio, scale) =
+                self.measure(&mut scale_floor, step_length, energy0);
+            let report = IterationReport {
+                iteration,
+                residual_ratio,
+                energy_ratio,
+                force_scale: scale,
+                line_search: step_length,
+                correction_norm: self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt(),
+            };
+            self.work.history.push(residual_ratio);
+            observer.on_iteration(&report);
+            if !residual_ratio.is_finite() {
+                return Err(FailureReason::NotFinite { iteration });
+            }
+            let converged = scale == 0.0
+                || (residual_ratio <= conv.residual_tolerance
+                    && energy_ratio <= conv.energy_tolerance);
+            if converged {
+                return Ok(iteration + 1);
+            }
+            if r0 > 0.0 && residual_ratio * scale > conv.divergence_ratio * r0 {
+                return Err(FailureReason::Diverged {
+                    iteration,
+                    ratio: residual_ratio * scale / r0,
+                });
+            }
+            if iteration == conv.max_iterations {
+                return Err(FailureReason::MaxIterations {
+                    iterations: iteration + 1,
+                    residual: residual_ratio,
+                    energy: energy_ratio,
+                });
+            }
+            for d in 0..n {
+                self.work.rhs[d] = if self.prescribed[d] {
+                    0.0
+                } else {
+                    self.f_ext[d] - self.residual[d]
+                };
+            }
+            self.factorize_and_solve()?;
+        }
+        unreachable!("the loop returns at max_iterations")
+    }
+
+    /// Residual ratio, energy ratio and force scale at the current point.
+    fn measure(&self, scale_floor: &mut f64, step_length: f64, energy0: f64) -> (f64, f64, f64) {
+        let n = self.u.len();
+        let mut out_of_balance = 0.0;
+        let mut reactions = 0.0;
+        let mut work = 0.0;
+        for d in 0..n {
+            let r = self.f_ext[d] - self.residual[d];
+            if self.prescribed[d] {
+                reactions += r * r;
+            } else {
+                out_of_balance += r * r;
+                work += step_length * self.work.delta[d] * r;
+            }
+        }
+        let scale = scale_floor.max(reactions.sqrt());
+        *scale_floor = scale;
+        let residual_ratio = if scale > 0.0 {
+            out_of_balance.sqrt() / scale
+        } else {
+            0.0
+        };
+        let energy_ratio = if energy0 > 0.0 {
+            work.abs() / energy0
+        } else {
+            0.0
+        };
+        (residual_ratio, energy_ratio, scale)
+    }
+
+    fn factorize_and_solve(&mut self) -> Result<(), FailureReason> {
+        self.last_factor = Some(self.solver.factorize(&self.work.values)?);
+        self.work.delta.copy_from_slice(&self.work.rhs);
+        self.solver.solve_in_place(&mut self.work.delta)?;
+        if self.work.delta.iter().any(|x| !x.is_finite()) {
+            return Err(FailureReason::NotFinite { iteration: 0 });
+        }
+        Ok(())
+    }
+
+    /// Assembles residual, tangent (and the prescribed-motion predictor when asked) at `u`.
+    pub(super) fn assemble_full(&mut self, with_predictor: bool) -> Result<(), FailureReason> {
+        let predictor = with_predictor.then_some((
+            self.work.du_prescribed.as_slice(),
+            self.work.predictor.as_mut_slice(),
+        ));
+        self.energy = self.assembler.assemble(
+            &self.terms,
+            &self.u,
+            &self.prescribed,
+            AssemblyOutput {
+                residual: &mut self.residual,
+                tangent: Some(&mut self.work.values),
+                predictor,
+            },
+        )?;
+        Ok(())
+    }
+
+    /// Residual only at `u + s δ` (into `residual_trial`); returns δ·R(s) on free DOFs.
+    fn trial_projection(&mut self, s: f64) -> Result<f64, FailureReason> {
+        for d in 0..self.u.len() {
+            self.work.trial[d] = self.u[d] + s * self.work.delta[d];
+        }
+        self.assembler.assemble(
+            &self.terms,
+            &self.work.trial,
+            &self.prescribed,
+            AssemblyOutput {
+                residual: &mut self.work.residual_trial,
+                tangent: None,
+                predictor: None,
+            },
+        )?;
+        Ok(self.projection(&self.work.residual_trial))
+    }
+
+    fn projection(&self, residual: &[f64]) -> f64 {
+        (0..self.u.len())
+            .filter(|&d| !self.prescribed[d])
+            .map(|d| self.work.delta[d] * (self.f_ext[d] - residual[d]))
+            .sum()
+    }
+
+    /// Chooses the step length along δ, moves `u` there and assembles residual and tangent.
+    /// Full step unless it inverts an element (then halve) or the projection g(s) = δ·R(u+sδ)
+    /// stays above `threshold·g(0)` (then secant steps on g, keeping the best |g|).
+    fn line_search(&mut self, conv: &Convergence) -> Result<f64, FailureReason> {
+        let g0 = self.projection(&self.residual);
+        let mut s = 1.0;
+        let mut g1 = loop {
+            match self.trial_projection(s) {
+                Ok(g) => break g,
+                Err(e) if s > 1.0 / 32.0 => {
+                    let _ = e;
+                    s *= 0.5;
+                }
+                Err(e) => return Err(e),
+            }
+        };
+        if conv.line_search_threshold > 0.0
+            && g0 > 0.0
+            && g1.abs() > conv.line_search_threshold * g0
+        {
+            let (mut best_s, mut best_g) = (s, g1);
+            let (mut s_prev, mut g_prev) = (0.0, g0);
+            for _ in 0..5 {
+                let denom = g_prev - g1;
+                if denom == 0.0 {
+                    break;
+                }
+                let s_new = (s - g1 * (s - s_prev) / denom).clamp(0.1 * s, 1.0);
+                s_prev = s;
+                g_prev = g1;
+                s = s_new;
+                match self.trial_projection(s) {
+                    Ok(g) => g1 = g,
+                    Err(_) => break,
+                }
+                if g1.abs() < best_g.abs() {
+                    best_s = s;
+                    best_g = g1;
+                }
+                if g1.abs() <= conv.line_search_threshold * g0 {
+                    break;
+                }
+            }
+            s = best_s;
+        }
+        for d in 0..self.u.len() {
+            self.u[d] += s * self.work.delta[d];
+        }
+        self.assemble_full(false)?;
+        Ok(s)
+    }
+}

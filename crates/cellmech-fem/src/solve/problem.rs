@@ -1,0 +1,255 @@
+//! The problem: terms, DOFs, assembler, linear solver and state, and the step driver.
+
+use super::control::StepControl;
+use super::error::SolveError;
+use super::observer::{IncrementReport, Observer};
+use super::step::{Motion, Step};
+use crate::assembly::Assembler;
+use crate::dof::DofMap;
+use crate::linsolve::{FactorInfo, LinearSolver};
+use crate::term::Term;
+
+/// Buffers reused by every Newton iteration (allocated once per problem).
+#[derive(Debug, Clone)]
+pub(super) struct Work {
+    pub values: Vec<f64>,
+    pub predictor: Vec<f64>,
+    pub rhs: Vec<f64>,
+    pub delta: Vec<f64>,
+    pub trial: Vec<f64>,
+    pub du_prescribed: Vec<f64>,
+    pub residual_trial: Vec<f64>,
+    pub history: Vec<f64>,
+}
+
+/// A nonlinear static problem.
+pub struct Problem {
+    pub(super) dof_map: DofMap,
+    pub(super) terms: Vec<Box<dyn Term>>,
+    pub(super) assembler: Assembler,
+    pub(super) solver: Box<dyn LinearSolver>,
+    /// DOFs no element couples: always held at their value.
+    pub(super) untouched: Vec<bool>,
+    pub(super) prescribed: Vec<bool>,
+    pub(super) u: Vec<f64>,
+    pub(super) f_ext: Vec<f64>,
+    pub(super) residual: Vec<f64>,
+    pub(super) energy: f64,
+    pub(super) last_factor: Option<FactorInfo>,
+    pub(super) work: Work,
+    total_time: f64,
+    steps_done: usize,
+}
+
+impl Problem {
+    /// Builds the pattern and the symbolic factorisation for these terms.
+    pub fn new(
+        dof_map: DofMap,
+        terms: Vec<Box<dyn Term>>,
+        mut solver: Box<dyn LinearSolver>,
+    ) -> Result<Self, SolveError> {
+        let assembler = Assembler::new(&dof_map, &terms);
+        solver.analyze(assembler.pattern())?;
+        let n = dof_map.num_dofs();
+        let nnz = assembler.pattern().nnz();
+        let untouched = assembler.untouched_dofs();
+        Ok(Problem {
+            dof_map,
+            terms,
+            assembler,
+            solver,
+            prescribed: untouched.clone(),
+            untouched,
+            u: vec![0.0; n],
+            f_ext: vec![0.0; n],
+            residual: vec![0.0; n],
+            energy: 0.0,
+            last_factor: None,
+            work: Work {
+                values: vec![0.0; nnz],
+                predictor: vec![0.0; n],
+                rhs: vec![0.0; n],
+                delta: vec![0.0; n],
+                trial: vec![0.0; n],
+                du_prescribed: vec![0.0; n],
+                residual_trial: vec![0.0; n],
+                history: Vec::with_capacity(64),
+            },
+            total_time: 0.0,
+            steps_done: 0,
+        })
+    }
+
+    /// The DOF numbering.
+    pub fn dof_map(&self) -> &DofMap {
+        &self.dof_map
+    }
+
+    /// The terms, in assembly order.
+    pub fn terms(&self) -> &[Box<dyn Term>] {
+        &self.terms
+    }
+
+    /// The assembler (pattern and colouring).
+    pub fn assembler(&self) -> &Assembler {
+        &self.assembler
+    }
+
+    /// Current DOF values (displacements; µm).
+    pub fn u(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// Reaction on DOF `dof` (nN): the force the constraint applies to the body,
+    /// `r_int − f_ext`, meaningful for prescribed DOFs at a converged state.
+    pub fn reaction(&self, dof: usize) -> f64 {
+        self.residual[dof] - self.f_ext[dof]
+    }
+
+    /// Sum of the reactions over `dofs`.
+    pub fn reaction_sum(&self, dofs: impl IntoIterator<Item = usize>) -> f64 {
+        dofs.into_iter().map(|d| self.reaction(d)).sum()
+    }
+
+    /// Whether `dof` is prescribed in the current step.
+    pub fn is_prescribed(&self, dof: usize) -> bool {
+        self.prescribed[dof]
+    }
+
+    /// Internal energy at the last converged state (nN·µm).
+    pub fn energy(&self) -> f64 {
+        self.energy
+    }
+
+    /// The last numeric factorisation's facts (method, negative pivots).
+    pub fn last_factor(&self) -> Option<FactorInfo> {
+        self.last_factor
+    }
+
+    /// Total pseudo-time reached.
+    pub fn total_time(&self) -> f64 {
+        self.total_time
+    }
+
+    /// Runs one analysis step from its start (pseudo-time 0) to its end (1) with automatic
+    /// increment control. Every converged increment is reported to `observer` before the next
+    /// starts, so a failure keeps everything converged so far.
+    pub fn run_step(&mut self, step: &Step, observer: &mut dyn Observer) -> Result<(), SolveError> {
+        self.check_step(step)?;
+        let n = self.u.len();
+        let step_index = self.steps_done;
+        observer.on_step_start(step_index, &step.name);
+        self.prescribed.copy_from_slice(&self.untouched);
+        let u_start = self.u.clone();
+        let mut u_end = self.u.clone();
+        for &(dof, motion) in &step.prescribed {
+            self.prescribed[dof] = true;
+            u_end[dof] = match motion {
+                Motion::Hold => u_start[dof],
+                Motion::To(v) => v,
+                Motion::By(dv) => u_start[dof] + dv,
+            };
+        }
+        let f_start = self.f_ext.clone();
+        let mut f_end = self.f_ext.clone();
+        for load in &step.loads {
+            f_end[load.dof] = load.value;
+        }
+        let control = &step.control;
+        let mut time = 0.0;
+        let mut dt = control.initial_increment.min(control.max_increment);
+        let mut increments = 0;
+        let mut target_u = vec![0.0; n];
+        let mut target_f = vec![0.0; n];
+        while time < 1.0 {
+            if time + dt > 1.0 - 1e-12 {
+                dt = 1.0 - time;
+            }
+            let t = time + dt;
+            for d in 0..n {
+                target_u[d] = if self.prescribed[d] {
+                    u_start[d] + t * (u_end[d] - u_start[d])
+                } else {
+                    0.0
+                };
+                target_f[d] = f_start[d] + t * (f_end[d] - f_start[d]);
+            }
+            let saved_u = self.u.clone();
+            let saved_f = self.f_ext.clone();
+            match self.newton_increment(&target_u, &target_f, control, observer) {
+                Ok(iterations) => {
+                    time = t;
+                    increments += 1;
+                    let report = IncrementReport {
+                        step_index,
+                        step_name: &step.name,
+                        increment: increments,
+                        step_time: time,
+                        total_time: self.total_time + time * step.duration,
+                        iterations,
+                        residual_history: &self.work.history,
+                        energy: self.energy,
+                    };
+                    observer.on_increment(self, &report);
+                    if iterations <= control.easy_iterations {
+                        dt = (dt * control.growth).min(control.max_increment);
+                    }
+                }
+                Err(reason) => {
+                    self.u = saved_u;
+                    self.f_ext = saved_f;
+                    observer.on_cutback(time, dt, &reason);
+                    dt *= control.cutback;
+                    if dt < control.min_increment {
+                        return Err(SolveError::IncrementTooSmall {
+                            step: step.name.clone(),
+                            time,
+                            increment: dt,
+                            min_increment: control.min_increment,
+                            reason,
+                        });
+                    }
+                }
+            }
+        }
+        self.total_time += step.duration;
+        self.steps_done += 1;
+        Ok(())
+    }
+
+    fn check_step(&self, step: &Step) -> Result<(), SolveError> {
+        let n = self.u.len();
+        let invalid = |message: String| SolveError::InvalidStep {
+            step: step.name.clone(),
+            message,
+        };
+        if !(step.duration > 0.0) {
+            return Err(invalid(format!(
+                "duration must be > 0, found {}",
+                step.duration
+            )));
+        }
+        let c: &StepControl = &step.control;
+        if !(c.min_increment > 0.0
+            && c.min_increment <= c.initial_increment
+            && c.initial_increment <= 1.0)
+        {
+            return Err(invalid(format!(
+                "increments must satisfy 0 < min ({}) <= initial ({}) <= 1",
+                c.min_increment, c.initial_increment
+            )));
+        }
+        if let Some(&(dof, _)) = step.prescribed.iter().find(|(d, _)| *d >= n) {
+            return Err(invalid(format!(
+                "prescribed DOF {dof} does not exist ({n} DOFs)"
+            )));
+        }
+        if let Some(load) = step.loads.iter().find(|l| l.dof >= n) {
+            return Err(invalid(format!(
+                "loaded DOF {} does not exist ({n} DOFs)",
+                load.dof
+            )));
+        }
+        Ok(())
+    }
+}

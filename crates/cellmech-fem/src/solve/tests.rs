@@ -1,0 +1,265 @@
+//! Solver behaviour on small spring systems with closed-form answers.
+
+use super::*;
+use crate::dof::DofMap;
+use crate::element::spring::SpringSet;
+use crate::linsolve::{FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern};
+use crate::term::Term;
+
+/// Dense LU with partial pivoting: an independent reference solver for tiny systems.
+#[derive(Default)]
+pub(crate) struct DenseSolver {
+    pattern: Option<SparsityPattern>,
+    lu: Vec<f64>,
+    pivots: Vec<usize>,
+}
+
+impl LinearSolver for DenseSolver {
+    fn analyze(&mut self, pattern: &SparsityPattern) -> Result<(), LinSolveError> {
+        self.pattern = Some(pattern.clone());
+        Ok(())
+    }
+
+    fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError> {
+        let p = self
+            .pattern
+            .as_ref()
+            .ok_or(LinSolveError::Usage("not analysed".into()))?;
+        let n = p.n;
+        self.lu = vec![0.0; n * n];
+        for c in 0..n {
+            for k in p.col_ptr[c]..p.col_ptr[c + 1] {
+                let r = p.row_idx[k];
+                self.lu[r * n + c] = values[k];
+                self.lu[c * n + r] = values[k];
+            }
+        }
+        self.pivots = (0..n).collect();
+        for k in 0..n {
+            let (piv, max) = (k..n)
+                .map(|i| (i, self.lu[i * n + k].abs()))
+                .fold((k, -1.0), |a, b| if b.1 > a.1 { b } else { a });
+            if max == 0.0 {
+                return Err(LinSolveError::Singular(format!("zero pivot in column {k}")));
+            }
+            if piv != k {
+                for j in 0..n {
+                    self.lu.swap(k * n + j, piv * n + j);
+                }
+                self.pivots.swap(k, piv);
+            }
+            for i in k + 1..n {
+                let f = self.lu[i * n + k] / self.lu[k * n + k];
+                self.lu[i * n + k] = f;
+                for j in k + 1..n {
+                    self.lu[i * n + j] -= f * self.lu[k * n + j];
+                }
+            }
+        }
+        Ok(FactorInfo {
+            method: FactorMethod::Lu,
+            negative_pivots: None,
+        })
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
+        let n = rhs.len();
+        let b: Vec<f64> = self.pivots.iter().map(|&p| rhs[p]).collect();
+        let mut y = b;
+        for i in 0..n {
+            for j in 0..i {
+                y[i] -= self.lu[i * n + j] * y[j];
+            }
+        }
+        for i in (0..n).rev() {
+            for j in i + 1..n {
+                y[i] -= self.lu[i * n + j] * y[j];
+            }
+            y[i] /= self.lu[i * n + i];
+        }
+        rhs.copy_from_slice(&y);
+        Ok(())
+    }
+}
+
+fn springs(nodes: &[[f64; 3]], pairs: &[[usize; 2]], k: f64) -> SpringSet {
+    SpringSet {
+        name: "springs".into(),
+        nodes: pairs.to_vec(),
+        reference: pairs.iter().map(|&[a, b]| [nodes[a], nodes[b]]).collect(),
+        stiffness: vec![k; pairs.len()],
+        rest_length: pairs
+            .iter()
+            .map(|&[a, b]| {
+                (0..3)
+                    .map(|i| (nodes[b][i] - nodes[a][i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .collect(),
+    }
+}
+
+fn problem(nodes: &[[f64; 3]], pairs: &[[usize; 2]], k: f64) -> Problem {
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(springs(nodes, pairs, k))];
+    Problem::new(
+        DofMap::translational(nodes.len()),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap()
+}
+
+#[derive(Default)]
+struct Recorder {
+    iterations: Vec<IterationReport>,
+    increments: Vec<(f64, usize)>,
+    cutbacks: usize,
+}
+
+impl Observer for Recorder {
+    fn on_iteration(&mut self, report: &IterationReport) {
+        self.iterations.push(*report);
+    }
+    fn on_increment(&mut self, _problem: &Problem, report: &IncrementReport<'_>) {
+        self.increments.push((report.step_time, report.iterations));
+    }
+    fn on_cutback(&mut self, _t: f64, _dt: f64, _reason: &FailureReason) {
+        self.cutbacks += 1;
+    }
+}
+
+#[test]
+fn newton_prescribed_stretch_of_spring_chain_gives_series_stiffness_reaction() {
+    // Three collinear springs of stiffness 2 nN/um; node 0 fixed, node 3 pulled by 0.9 um.
+    let nodes = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [3.0, 0.0, 0.0],
+    ];
+    let mut p = problem(&nodes, &[[0, 1], [1, 2], [2, 3]], 2.0);
+    let mut step = Step::new("pull");
+    step.prescribed = (0..3).map(|c| (c, Motion::Hold)).collect();
+    step.prescribed
+        .extend([(9, Motion::To(0.9)), (10, Motion::Hold), (11, Motion::Hold)]);
+    for node in 1..3 {
+        step.prescribed
+            .extend([(3 * node + 1, Motion::Hold), (3 * node + 2, Motion::Hold)]);
+    }
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    assert!(
+        (p.reaction(9) - 2.0 / 3.0 * 0.9).abs() < 1e-10,
+        "reaction {}",
+        p.reaction(9)
+    );
+    assert!((p.reaction(0) + 2.0 / 3.0 * 0.9).abs() < 1e-10);
+    assert!((p.u()[3] - 0.3).abs() < 1e-10 && (p.u()[6] - 0.6).abs() < 1e-10);
+    assert!((rec.increments.last().unwrap().0 - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn newton_converges_quadratically_on_a_large_rotation_spring_problem() {
+    // A spring fixed at the origin, its free end loaded sideways: large rotation.
+    let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+    let mut set = springs(&nodes, &[[0, 1]], 10.0);
+    set.rest_length[0] = 0.8; // prestretched, so the lateral stiffness N/l is not zero
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
+    let mut p = Problem::new(
+        DofMap::translational(2),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut step = Step::new("load");
+    step.prescribed = vec![
+        (0, Motion::Hold),
+        (1, Motion::Hold),
+        (2, Motion::Hold),
+        (5, Motion::Hold),
+    ];
+    step.loads = vec![
+        NodalLoad { dof: 3, value: 4.0 },
+        NodalLoad { dof: 4, value: 3.0 },
+    ];
+    step.control.initial_increment = 1.0;
+    step.control.max_increment = 1.0;
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    // Equilibrium: the spring aligns with the load (4, 3), N = 5 = k (l - 0.8) -> l = 1.3.
+    let (x, y) = (1.0 + p.u()[3], p.u()[4]);
+    assert!(
+        (x - 1.3 * 0.8).abs() < 1e-9 && (y - 1.3 * 0.6).abs() < 1e-9,
+        "x {x} y {y}"
+    );
+    // Quadratic convergence: once below 1e-2, each ratio is below ~C * previous^2.
+    let ratios: Vec<f64> = rec.iterations.iter().map(|r| r.residual_ratio).collect();
+    let tail: Vec<&[f64]> = ratios
+        .windows(2)
+        .filter(|w| w[0] < 1e-2 && w[1] > 0.0)
+        .collect();
+    assert!(!tail.is_empty(), "ratios {ratios:?}");
+    for w in tail {
+        assert!(w[1] < 10.0 * w[0] * w[0], "not quadratic: {ratios:?}");
+    }
+}
+
+/// One DOF on a softening support: force sin(u), so no equilibrium exists beyond 1 nN.
+struct SofteningSupport;
+
+impl Term for SofteningSupport {
+    fn name(&self) -> &str {
+        "softening"
+    }
+    fn num_elements(&self) -> usize {
+        1
+    }
+    fn element_dofs(&self, _e: usize, _m: &DofMap, dofs: &mut [usize]) -> usize {
+        dofs[0] = 0;
+        1
+    }
+    fn evaluate(
+        &self,
+        _e: usize,
+        u: &[f64],
+        r: &mut [f64],
+        k: Option<&mut [f64]>,
+    ) -> Result<f64, crate::element::KernelError> {
+        r[0] = u[0].sin();
+        if let Some(k) = k {
+            k[0] = u[0].cos();
+        }
+        Ok(1.0 - u[0].cos())
+    }
+}
+
+#[test]
+fn past_a_limit_point_load_control_stops_cleanly_and_keeps_converged_increments() {
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(SofteningSupport)];
+    let dofs = DofMap::with_counts(&[1]);
+    let mut p = Problem::new(dofs, terms, Box::new(DenseSolver::default())).unwrap();
+    let mut step = Step::new("beyond-limit");
+    step.loads = vec![NodalLoad { dof: 0, value: 1.5 }];
+    step.control.min_increment = 1e-4;
+    let mut rec = Recorder::default();
+    let err = p.run_step(&step, &mut rec).unwrap_err();
+    let last = rec.increments.last().unwrap().0;
+    match &err {
+        SolveError::IncrementTooSmall { step, time, .. } => {
+            assert_eq!(step, "beyond-limit");
+            assert!((time - last).abs() < 1e-12);
+        }
+        other => panic!("unexpected error {other}"),
+    }
+    // The limit load 1 nN is reached at t = 2/3: the last converged increment is just below.
+    assert!(last > 0.6 && last < 2.0 / 3.0, "last converged time {last}");
+    assert!(
+        (p.u()[0] - (1.5 * last).asin()).abs() < 1e-8,
+        "state kept at the last converged increment"
+    );
+    assert!(rec.cutbacks > 0);
+    assert!(err
+        .to_string()
+        .contains("step 'beyond-limit' stopped at step time"));
+}
