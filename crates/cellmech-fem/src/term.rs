@@ -39,6 +39,49 @@ pub trait Term: Send + Sync {
     fn outputs(&self, _u: &[f64], _dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
         Ok(None)
     }
+
+    /// Named scalar results after a converged increment (e.g. a tool's reaction force),
+    /// with units in the names (`tool_force_z_nN`). Written as extra curve columns.
+    fn scalar_outputs(&self, _u: &[f64], _dof_map: &DofMap) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
+    /// Called before every attempt at an increment with the step and the step time the
+    /// increment is heading for, so that terms driven by their own load program (e.g. a rigid
+    /// tool's motion) can position themselves.
+    fn set_load_state(&mut self, _state: &LoadState) {}
+
+    /// Called when Newton has converged. A term with an inner loop (augmented-Lagrangian
+    /// multipliers, an active set) updates itself and says whether it is settled; if any term
+    /// is not, Newton continues from the current state.
+    fn augment(&mut self, _u: &[f64], _dof_map: &DofMap) -> Augmentation {
+        Augmentation::Settled
+    }
+
+    /// The increment converged and is accepted: make trial history permanent.
+    fn commit(&mut self, _u: &[f64], _dof_map: &DofMap) {}
+
+    /// The increment failed: return to the last committed state.
+    fn rollback(&mut self) {}
+}
+
+/// Where the load program is: a term's view of the analysis time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoadState {
+    /// Index of the analysis step (0-based).
+    pub step_index: usize,
+    /// Step time the current increment is heading for (0..1).
+    pub step_time: f64,
+}
+
+/// Result of [`Term::augment`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Augmentation {
+    /// Nothing changed: the converged state is final for this term.
+    Settled,
+    /// Multipliers or the active set changed; Newton must continue. The message says how
+    /// far from settled (e.g. the largest penetration) for logs.
+    Updated(String),
 }
 
 /// Per-element results of one term, as cells for a viewer.

@@ -15,6 +15,8 @@ pub struct Convergence {
     pub max_iterations: usize,
     /// Divergence: the increment is cut when ‖Rᵢ‖ exceeds this multiple of ‖R₀‖.
     pub divergence_ratio: f64,
+    /// Most augmentation rounds (contact multipliers, active sets) per increment.
+    pub max_augmentations: usize,
     /// Line search is tried when |R(u+δ)·δ| > this fraction of |R(u)·δ| (0 disables it).
     pub line_search_threshold: f64,
 }
@@ -26,6 +28,7 @@ impl Default for Convergence {
             energy_tolerance: 1e-12,
             max_iterations: 25,
             divergence_ratio: 1e6,
+            max_augmentations: 50,
             line_search_threshold: 0.9,
         }
     }

@@ -17,7 +17,7 @@ pub use control::{Convergence, StepControl};
 pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};
-pub use problem::Problem;
+pub use problem::{Problem, Timings};
 pub use step::{Motion, NodalLoad, Step};
 
 #[cfg(test)]

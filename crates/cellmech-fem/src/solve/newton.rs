@@ -10,7 +10,10 @@ use super::control::{Convergence, StepControl};
 use super::error::FailureReason;
 use super::observer::Observer;
 use super::problem::Problem;
+use std::time::Instant;
+
 use crate::assembly::AssemblyOutput;
+use crate::term::Augmentation;
 
 /// One Newton iteration, for convergence tables.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -84,7 +87,9 @@ impl Problem {
         self.factorize_and_solve()?;
         let energy0 = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
         let mut step_length = 1.0;
-        for iteration in 0..=conv.max_iterations {
+        let mut augmentations = 0;
+        let mut round_start = 0;
+        for iteration in 0.. {
             // Update and evaluate at the new point (tangent included for the next solve).
             if iteration == 0 {
                 for d in 0..n {
@@ -113,15 +118,26 @@ impl Problem {
                 || (residual_ratio <= conv.residual_tolerance
                     && energy_ratio <= conv.energy_tolerance);
             if converged {
-                return Ok(iteration + 1);
-            }
-            if r0 > 0.0 && residual_ratio * scale > conv.divergence_ratio * r0 {
+                match self.augment_terms() {
+                    None => return Ok(iteration + 1),
+                    Some(message) => {
+                        augmentations += 1;
+                        if augmentations > conv.max_augmentations {
+                            return Err(FailureReason::Unsettled(format!(
+                                "{augmentations} augmentations without settling: {message}"
+                            )));
+                        }
+                        // The terms changed: re-evaluate here and continue Newton.
+                        self.assemble_full(false)?;
+                        round_start = iteration;
+                    }
+                }
+            } else if r0 > 0.0 && residual_ratio * scale > conv.divergence_ratio * r0 {
                 return Err(FailureReason::Diverged {
                     iteration,
                     ratio: residual_ratio * scale / r0,
                 });
-            }
-            if iteration == conv.max_iterations {
+            } else if iteration - round_start >= conv.max_iterations {
                 return Err(FailureReason::MaxIterations {
                     iterations: iteration + 1,
                     residual: residual_ratio,
@@ -137,7 +153,18 @@ impl Problem {
             }
             self.factorize_and_solve()?;
         }
-        unreachable!("the loop returns at max_iterations")
+        unreachable!("the loop only ends by returning")
+    }
+
+    /// Lets every term augment; `None` when all are settled, else the first message.
+    fn augment_terms(&mut self) -> Option<String> {
+        let mut message = None;
+        for term in &mut self.terms {
+            if let Augmentation::Updated(m) = term.augment(&self.u, &self.dof_map) {
+                message.get_or_insert(format!("{}: {m}", term.name()));
+            }
+        }
+        message
     }
 
     /// Residual ratio, energy ratio and force scale at the current point.
@@ -171,9 +198,14 @@ impl Problem {
     }
 
     fn factorize_and_solve(&mut self) -> Result<(), FailureReason> {
+        let start = Instant::now();
         self.last_factor = Some(self.solver.factorize(&self.work.values)?);
+        let factored = Instant::now();
         self.work.delta.copy_from_slice(&self.work.rhs);
         self.solver.solve_in_place(&mut self.work.delta)?;
+        self.timings.factorization_s += (factored - start).as_secs_f64();
+        self.timings.solve_s += factored.elapsed().as_secs_f64();
+        self.timings.factorizations += 1;
         if self.work.delta.iter().any(|x| !x.is_finite()) {
             return Err(FailureReason::NotFinite { iteration: 0 });
         }
@@ -182,6 +214,7 @@ impl Problem {
 
     /// Assembles residual, tangent (and the prescribed-motion predictor when asked) at `u`.
     pub(super) fn assemble_full(&mut self, with_predictor: bool) -> Result<(), FailureReason> {
+        let start = Instant::now();
         let predictor = with_predictor.then_some((
             self.work.du_prescribed.as_slice(),
             self.work.predictor.as_mut_slice(),
@@ -196,11 +229,14 @@ impl Problem {
                 predictor,
             },
         )?;
+        self.timings.assembly_s += start.elapsed().as_secs_f64();
+        self.timings.assemblies += 1;
         Ok(())
     }
 
     /// Residual only at `u + s δ` (into `residual_trial`); returns δ·R(s) on free DOFs.
     fn trial_projection(&mut self, s: f64) -> Result<f64, FailureReason> {
+        let start = Instant::now();
         for d in 0..self.u.len() {
             self.work.trial[d] = self.u[d] + s * self.work.delta[d];
         }
@@ -214,6 +250,7 @@ impl Problem {
                 predictor: None,
             },
         )?;
+        self.timings.residual_only_s += start.elapsed().as_secs_f64();
         Ok(self.projection(&self.work.residual_trial))
     }
 

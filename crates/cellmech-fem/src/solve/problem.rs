@@ -7,7 +7,7 @@ use super::step::{Motion, Step};
 use crate::assembly::Assembler;
 use crate::dof::DofMap;
 use crate::linsolve::{FactorInfo, LinearSolver};
-use crate::term::Term;
+use crate::term::{LoadState, Term};
 
 /// Buffers reused by every Newton iteration (allocated once per problem).
 #[derive(Debug, Clone)]
@@ -20,6 +20,23 @@ pub(super) struct Work {
     pub du_prescribed: Vec<f64>,
     pub residual_trial: Vec<f64>,
     pub history: Vec<f64>,
+}
+
+/// Wall-clock time spent in the hot parts of the solver, summed over the problem's life.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct Timings {
+    /// Residual and tangent assembly (s).
+    pub assembly_s: f64,
+    /// Residual-only assembly in line searches (s).
+    pub residual_only_s: f64,
+    /// Numeric factorisation (s).
+    pub factorization_s: f64,
+    /// Triangular solves (s).
+    pub solve_s: f64,
+    /// Number of tangent assemblies.
+    pub assemblies: usize,
+    /// Number of numeric factorisations.
+    pub factorizations: usize,
 }
 
 /// A nonlinear static problem.
@@ -36,6 +53,7 @@ pub struct Problem {
     pub(super) residual: Vec<f64>,
     pub(super) energy: f64,
     pub(super) last_factor: Option<FactorInfo>,
+    pub(super) timings: Timings,
     pub(super) work: Work,
     total_time: f64,
     steps_done: usize,
@@ -65,6 +83,7 @@ impl Problem {
             residual: vec![0.0; n],
             energy: 0.0,
             last_factor: None,
+            timings: Timings::default(),
             work: Work {
                 values: vec![0.0; nnz],
                 predictor: vec![0.0; n],
@@ -126,6 +145,11 @@ impl Problem {
         self.last_factor
     }
 
+    /// Time spent assembling, factorising and solving so far.
+    pub fn timings(&self) -> Timings {
+        self.timings
+    }
+
     /// Total pseudo-time reached.
     pub fn total_time(&self) -> f64 {
         self.total_time
@@ -176,8 +200,18 @@ impl Problem {
             }
             let saved_u = self.u.clone();
             let saved_f = self.f_ext.clone();
+            let load_state = LoadState {
+                step_index,
+                step_time: t,
+            };
+            for term in &mut self.terms {
+                term.set_load_state(&load_state);
+            }
             match self.newton_increment(&target_u, &target_f, control, observer) {
                 Ok(iterations) => {
+                    for term in &mut self.terms {
+                        term.commit(&self.u, &self.dof_map);
+                    }
                     time = t;
                     increments += 1;
                     let report = IncrementReport {
@@ -196,6 +230,9 @@ impl Problem {
                     }
                 }
                 Err(reason) => {
+                    for term in &mut self.terms {
+                        term.rollback();
+                    }
                     self.u = saved_u;
                     self.f_ext = saved_f;
                     observer.on_cutback(time, dt, &reason);
