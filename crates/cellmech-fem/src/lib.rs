@@ -7,6 +7,8 @@
 //! Internal units: µm, nN, kPa (= nN/µm²), s. The engine knows nothing about cells.
 
 pub mod assembly;
+pub mod contact;
+// pub mod continuum;
 pub mod dof;
 pub mod element;
 pub mod linsolve;

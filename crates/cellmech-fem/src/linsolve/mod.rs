@@ -5,7 +5,9 @@
 //! [`LinearSolver::factorize`] is called every Newton iteration with new values in the same
 //! pattern, and [`LinearSolver::solve_in_place`] solves with the last factorisation.
 
+mod dense;
 mod pattern;
+pub use dense::DenseSolver;
 pub use pattern::SparsityPattern;
 
 /// How the last numeric factorisation was done.

@@ -1,0 +1,267 @@
+//! Rigid tool shapes as gap functions.
+//!
+//! Each shape gives a gap function φ(x) that is zero on the tool surface, positive outside
+//! the tool (where the body may be) and negative inside, with its gradient and Hessian. For
+//! the plate and the sphere φ is the signed distance; for the paraboloid it is the axial
+//! level set φ = s + r²/(2R) (s the axial coordinate from the apex towards the body, r the
+//! lateral distance), whose gradient is normal to the surface on the surface, so the
+//! frictionless contact force is normal where it acts. The constraint φ ≥ 0 is the same.
+
+/// Shape of a rigid tool in its reference position (moved by the pilot-point displacement).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub enum ToolShape {
+    /// Infinite flat plate through `point` with unit `normal` pointing towards the body.
+    Plate {
+        /// A point of the plate surface (µm).
+        point: [f64; 3],
+        /// Unit normal, out of the plate towards the body.
+        normal: [f64; 3],
+    },
+    /// Flat disk of `radius` (a micropipette tip seen end-on): a plate limited to the nodes
+    /// whose projection on it lies within the radius.
+    Disk {
+        /// Centre of the disk face (µm).
+        center: [f64; 3],
+        /// Unit normal towards the body.
+        normal: [f64; 3],
+        /// Radius (µm).
+        radius: f64,
+    },
+    /// Paraboloid tip (AFM) with apex `apex`, unit `axis` pointing from the tip towards the
+    /// body, and tip radius `tip_radius`.
+    Paraboloid {
+        /// Apex (µm).
+        apex: [f64; 3],
+        /// Unit axis towards the body.
+        axis: [f64; 3],
+        /// Tip radius of curvature (µm).
+        tip_radius: f64,
+    },
+    /// Rigid sphere (colloidal probe).
+    Sphere {
+        /// Centre (µm).
+        center: [f64; 3],
+        /// Radius (µm).
+        radius: f64,
+    },
+}
+
+/// Gap, gradient and Hessian of φ at a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gap {
+    /// φ (µm); negative means penetration.
+    pub value: f64,
+    /// ∇φ.
+    pub gradient: [f64; 3],
+    /// ∇²φ (row-major 3×3).
+    pub hessian: [[f64; 3]; 3],
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+impl ToolShape {
+    /// Checks the parameters: unit-length normals/axes, positive radii.
+    pub fn validate(&self) -> Result<(), String> {
+        let unit = |v: &[f64; 3], what: &str| {
+            let n = dot(v, v).sqrt();
+            if (n - 1.0).abs() > 1e-9 {
+                Err(format!(
+                    "the {what} must be a unit vector; its length is {n}"
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let positive = |r: f64, what: &str| {
+            if r > 0.0 && r.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("the {what} must be > 0; found {r} um"))
+            }
+        };
+        match self {
+            ToolShape::Plate { normal, .. } => unit(normal, "plate normal"),
+            ToolShape::Disk { normal, radius, .. } => {
+                unit(normal, "disk normal")?;
+                positive(*radius, "disk radius")
+            }
+            ToolShape::Paraboloid {
+                axis, tip_radius, ..
+            } => {
+                unit(axis, "tip axis")?;
+                positive(*tip_radius, "tip radius")
+            }
+            ToolShape::Sphere { radius, .. } => positive(*radius, "sphere radius"),
+        }
+    }
+
+    /// Unit direction along which the tool acts on the body (normal/axis; for the sphere
+    /// `None`: it acts along its motion).
+    pub fn axis(&self) -> Option<[f64; 3]> {
+        match self {
+            ToolShape::Plate { normal, .. } | ToolShape::Disk { normal, .. } => Some(*normal),
+            ToolShape::Paraboloid { axis, .. } => Some(*axis),
+            ToolShape::Sphere { .. } => None,
+        }
+    }
+
+    /// Gap of point `x` when the tool is displaced by `offset`. `None` where the tool cannot
+    /// act (outside a disk's radius).
+    pub fn gap(&self, x: &[f64; 3], offset: &[f64; 3]) -> Option<Gap> {
+        let zero = [[0.0; 3]; 3];
+        match self {
+            ToolShape::Plate { point, normal } => {
+                let d = sub(&sub(x, point), offset);
+                Some(Gap {
+                    value: dot(&d, normal),
+                    gradient: *normal,
+                    hessian: zero,
+                })
+            }
+            ToolShape::Disk {
+                center,
+                normal,
+                radius,
+            } => {
+                let d = sub(&sub(x, center), offset);
+                let s = dot(&d, normal);
+                let lateral: [f64; 3] = std::array::from_fn(|i| d[i] - s * normal[i]);
+                (dot(&lateral, &lateral) <= radius * radius).then_some(Gap {
+                    value: s,
+                    gradient: *normal,
+                    hessian: zero,
+                })
+            }
+            ToolShape::Paraboloid {
+                apex,
+                axis,
+                tip_radius,
+            } => {
+                let d = sub(&sub(x, apex), offset);
+                let s = dot(&d, axis);
+                let lateral: [f64; 3] = std::array::from_fn(|i| d[i] - s * axis[i]);
+                let r2 = dot(&lateral, &lateral);
+                let gradient = std::array::from_fn(|i| axis[i] + lateral[i] / tip_radius);
+                let hessian = std::array::from_fn(|i| {
+                    std::array::from_fn(|j| {
+                        let delta = if i == j { 1.0 } else { 0.0 };
+                        (delta - axis[i] * axis[j]) / tip_radius
+                    })
+                });
+                Some(Gap {
+                    value: s + r2 / (2.0 * tip_radius),
+                    gradient,
+                    hessian,
+                })
+            }
+            ToolShape::Sphere { center, radius } => {
+                let d = sub(&sub(x, center), offset);
+                let l = dot(&d, &d).sqrt().max(1e-300);
+                let n: [f64; 3] = std::array::from_fn(|i| d[i] / l);
+                let hessian = std::array::from_fn(|i| {
+                    std::array::from_fn(|j| {
+                        let delta = if i == j { 1.0 } else { 0.0 };
+                        (delta - n[i] * n[j]) / l
+                    })
+                });
+                Some(Gap {
+                    value: l - radius,
+                    gradient: n,
+                    hessian,
+                })
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check_derivatives(shape: ToolShape, x: [f64; 3], offset: [f64; 3]) {
+        let g = shape.gap(&x, &offset).unwrap();
+        let h = 1e-6;
+        for j in 0..3 {
+            let (mut xp, mut xm) = (x, x);
+            xp[j] += h;
+            xm[j] -= h;
+            let (gp, gm) = (
+                shape.gap(&xp, &offset).unwrap(),
+                shape.gap(&xm, &offset).unwrap(),
+            );
+            assert!(((gp.value - gm.value) / (2.0 * h) - g.gradient[j]).abs() < 1e-7);
+            for i in 0..3 {
+                let fd = (gp.gradient[i] - gm.gradient[i]) / (2.0 * h);
+                assert!((fd - g.hessian[i][j]).abs() < 1e-6, "{shape:?} H[{i}][{j}]");
+            }
+        }
+    }
+
+    #[test]
+    fn tool_gap_gradients_and_hessians_match_finite_differences() {
+        let off = [0.1, -0.2, 0.3];
+        check_derivatives(
+            ToolShape::Plate {
+                point: [0.0, 0.0, 1.0],
+                normal: [0.0, 0.0, -1.0],
+            },
+            [0.3, 0.2, 0.5],
+            off,
+        );
+        check_derivatives(
+            ToolShape::Sphere {
+                center: [0.0, 0.0, 3.0],
+                radius: 2.0,
+            },
+            [0.5, 0.2, 0.7],
+            off,
+        );
+        let axis = [0.0, 0.6, -0.8];
+        check_derivatives(
+            ToolShape::Paraboloid {
+                apex: [0.0, 0.0, 1.0],
+                axis,
+                tip_radius: 0.2,
+            },
+            [0.3, -0.1, 0.4],
+            off,
+        );
+    }
+
+    #[test]
+    fn tool_gap_is_zero_on_the_surface_and_positive_outside() {
+        let sphere = ToolShape::Sphere {
+            center: [0.0, 0.0, 5.0],
+            radius: 2.0,
+        };
+        assert!(sphere.gap(&[0.0, 0.0, 3.0], &[0.0; 3]).unwrap().value.abs() < 1e-15);
+        assert!(sphere.gap(&[0.0, 0.0, 2.5], &[0.0; 3]).unwrap().value > 0.0);
+        let tip = ToolShape::Paraboloid {
+            apex: [0.0, 0.0, 1.0],
+            axis: [0.0, 0.0, -1.0],
+            tip_radius: 0.5,
+        };
+        // A point on the paraboloid: lateral r = 1, axial offset behind the apex r²/(2R) = 1.
+        assert!(tip.gap(&[1.0, 0.0, 2.0], &[0.0; 3]).unwrap().value.abs() < 1e-15);
+        assert!(tip.gap(&[0.0, 0.0, 0.9], &[0.0; 3]).unwrap().value > 0.0);
+        let disk = ToolShape::Disk {
+            center: [0.0; 3],
+            normal: [1.0, 0.0, 0.0],
+            radius: 1.0,
+        };
+        assert!(disk.gap(&[0.5, 0.0, 2.0], &[0.0; 3]).is_none());
+        assert_eq!(disk.gap(&[0.5, 0.5, 0.5], &[0.0; 3]).unwrap().value, 0.5);
+        assert!(ToolShape::Sphere {
+            center: [0.0; 3],
+            radius: 0.0
+        }
+        .validate()
+        .is_err());
+    }
+}
