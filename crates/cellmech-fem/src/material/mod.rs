@@ -5,4 +5,4 @@
 //! stretch to an axial force and its derivative.
 
 mod neo_hookean;
-pub use neo_hookean::NeoHookean;
+pub use neo_hookean::{NeoHookean, NeoHookeanError, VOIGT_PAIRS};

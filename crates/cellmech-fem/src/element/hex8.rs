@@ -1,1 +1,0 @@
-//! 8-node hexahedron, total Lagrangian. TODO(helper: hex8+material): implement.

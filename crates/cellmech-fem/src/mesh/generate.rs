@@ -1,1 +1,0 @@
-//! Built-in mesh generators. TODO(helper: generators): box and cubed-sphere meshes.
