@@ -8,7 +8,7 @@
 
 pub mod assembly;
 pub mod contact;
-// pub mod continuum;
+pub mod continuum;
 pub mod dof;
 pub mod element;
 pub mod linsolve;

@@ -1,0 +1,173 @@
+//! Continuum blocks: a [`Term`] over a block of hex8 elements with one neo-Hookean law.
+
+use crate::dof::DofMap;
+use crate::element::hex8::{hex8_evaluate, hex8_response, Hex8Formulation, Hex8Reference};
+use crate::element::KernelError;
+use crate::material::NeoHookean;
+use crate::mesh::{ElementBlock, ElementKind};
+use crate::term::{CellField, Term, TermOutput};
+
+/// A block of hexahedra sharing one material and formulation.
+#[derive(Debug, Clone)]
+pub struct ContinuumBlock {
+    name: String,
+    connectivity: Vec<[usize; 8]>,
+    references: Vec<Hex8Reference>,
+    material: NeoHookean,
+    formulation: Hex8Formulation,
+}
+
+/// Why a continuum block could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ContinuumBlockError {
+    /// The block holds elements that have no continuum kernel yet.
+    #[error("element set '{block}' holds {kind} elements; only hex8 continuum elements are supported so far")]
+    UnsupportedKind {
+        /// Block name.
+        block: String,
+        /// Element kind name.
+        kind: &'static str,
+    },
+    /// An element's reference geometry is degenerate or inverted.
+    #[error("element {element} of set '{block}': {source}")]
+    BadElement {
+        /// Block name.
+        block: String,
+        /// Element index in the block.
+        element: usize,
+        /// The kernel's complaint.
+        source: KernelError,
+    },
+}
+
+impl ContinuumBlock {
+    /// Precomputes the reference geometry of every element of `block`.
+    pub fn new(
+        block: &ElementBlock,
+        nodes: &[[f64; 3]],
+        material: NeoHookean,
+        formulation: Hex8Formulation,
+    ) -> Result<Self, ContinuumBlockError> {
+        if block.kind != ElementKind::Hex8 {
+            return Err(ContinuumBlockError::UnsupportedKind {
+                block: block.name.clone(),
+                kind: block.kind.name(),
+            });
+        }
+        let mut connectivity = Vec::with_capacity(block.len());
+        let mut references = Vec::with_capacity(block.len());
+        for (e, element) in block.elements().enumerate() {
+            let conn: [usize; 8] = std::array::from_fn(|a| element[a]);
+            let x0: [[f64; 3]; 8] = std::array::from_fn(|a| nodes[conn[a]]);
+            let reference =
+                Hex8Reference::new(&x0).map_err(|source| ContinuumBlockError::BadElement {
+                    block: block.name.clone(),
+                    element: e,
+                    source,
+                })?;
+            connectivity.push(conn);
+            references.push(reference);
+        }
+        Ok(ContinuumBlock {
+            name: block.name.clone(),
+            connectivity,
+            references,
+            material,
+            formulation,
+        })
+    }
+
+    /// The material law.
+    pub fn material(&self) -> NeoHookean {
+        self.material
+    }
+
+    /// Reference volume of the block (µm³).
+    pub fn volume(&self) -> f64 {
+        self.references.iter().map(Hex8Reference::volume).sum()
+    }
+
+    /// Element node lists.
+    pub fn connectivity(&self) -> &[[usize; 8]] {
+        &self.connectivity
+    }
+
+    fn gather(&self, e: usize, u: &[f64], dof_map: &DofMap) -> [f64; 24] {
+        std::array::from_fn(|k| u[dof_map.dof(self.connectivity[e][k / 3], k % 3)])
+    }
+}
+
+impl Term for ContinuumBlock {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn num_elements(&self) -> usize {
+        self.connectivity.len()
+    }
+
+    fn element_dofs(&self, e: usize, dof_map: &DofMap, dofs: &mut [usize]) -> usize {
+        for (k, dof) in dofs.iter_mut().take(24).enumerate() {
+            *dof = dof_map.dof(self.connectivity[e][k / 3], k % 3);
+        }
+        24
+    }
+
+    fn evaluate(
+        &self,
+        e: usize,
+        u_e: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+    ) -> Result<f64, KernelError> {
+        let u: &[f64; 24] = u_e.try_into().expect("hex8 elements have 24 DOFs");
+        let r: &mut [f64; 24] = residual.try_into().expect("hex8 residual has 24 entries");
+        let k = tangent.map(|t| <&mut [f64; 576]>::try_from(t).expect("hex8 tangent is 24x24"));
+        hex8_evaluate(
+            &self.references[e],
+            &self.material,
+            self.formulation,
+            u,
+            r,
+            k,
+        )
+    }
+
+    fn outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
+        let n = self.connectivity.len();
+        let mut cauchy = Vec::with_capacity(6 * n);
+        let mut von_mises = Vec::with_capacity(n);
+        let mut log_strain = Vec::with_capacity(n);
+        let mut volume_ratio = Vec::with_capacity(n);
+        let mut pressure = Vec::with_capacity(n);
+        for e in 0..n {
+            let response = hex8_response(
+                &self.references[e],
+                &self.material,
+                self.formulation,
+                &self.gather(e, u, dof_map),
+            )?;
+            cauchy.extend_from_slice(&response.cauchy);
+            von_mises.push(response.von_mises);
+            log_strain.push(response.max_principal_log_strain);
+            volume_ratio.push(response.volume_ratio);
+            pressure.push(response.pressure);
+        }
+        let field = |name: &str, components, values| CellField {
+            name: name.into(),
+            components,
+            values,
+        };
+        Ok(Some(TermOutput {
+            kind: ElementKind::Hex8,
+            connectivity: self.connectivity.iter().flatten().copied().collect(),
+            fields: vec![
+                field("cauchy_stress_kPa", 6, cauchy),
+                field("von_mises_kPa", 1, von_mises),
+                field("max_principal_log_strain", 1, log_strain),
+                field("volume_ratio", 1, volume_ratio),
+                field("pressure_kPa", 1, pressure),
+            ],
+        }))
+    }
+}
