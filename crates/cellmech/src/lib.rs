@@ -1,1 +1,2 @@
 //! The cellmech domain layer.
+pub mod units;

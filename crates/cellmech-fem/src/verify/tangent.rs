@@ -94,7 +94,7 @@ pub fn check_jacobian(
     h: f64,
 ) -> FdReport {
     let n = x.len();
-    let m = if n == 0 { 0 } else { jac_row_major.len() / n };
+    let m = jac_row_major.len().checked_div(n).unwrap_or(0);
     let mut fd = vec![0.0; m * n];
     let mut xp = x.to_vec();
     let mut rp = vec![0.0; m];

@@ -140,11 +140,8 @@ impl Hex8Reference {
 
     /// Deformation gradients and their determinants at the 8 Gauss points, plus the current
     /// volume v = Σ J w₀; errors with [`KernelError::InvertedElement`] when some J ≤ 0.
-    pub(crate) fn kinematics(
-        &self,
-        u: &[f64; 24],
-    ) -> Result<([Matrix3<f64>; 8], [f64; 8], f64), KernelError> {
-        let mut fs = [Matrix3::identity(); 8];
+    pub(crate) fn kinematics(&self, u: &[f64; 24]) -> Result<Kinematics, KernelError> {
+        let mut fs = [Matrix3::<f64>::identity(); 8];
         let mut js = [0.0; 8];
         let mut v = 0.0;
         for q in 0..8 {
@@ -158,7 +155,7 @@ impl Hex8Reference {
                 }
             }
             let j = f.determinant();
-            if !(j > 0.0) {
+            if j.is_nan() || j <= 0.0 {
                 return Err(KernelError::InvertedElement { qp: q, det_f: j });
             }
             js[q] = j;
@@ -167,6 +164,10 @@ impl Hex8Reference {
         Ok((fs, js, v))
     }
 }
+
+/// Deformation gradients F_q, determinants J_q at the 8 Gauss points and the current
+/// element volume v = Σ J_q w₀_q (µm³).
+pub(crate) type Kinematics = ([Matrix3<f64>; 8], [f64; 8], f64);
 
 /// ∂N_a/∂ξ at natural point `xi` for the trilinear shape functions
 /// N_a = (1 + ξ ξ_a)(1 + η η_a)(1 + ζ ζ_a) / 8.
@@ -234,7 +235,7 @@ pub fn hex8_evaluate(
     let (fs, js, v) = reference.kinematics(u)?;
     let v0 = reference.volume;
     let theta = v / v0;
-    if !(theta > 0.0) {
+    if theta.is_nan() || theta <= 0.0 {
         return Err(KernelError::InvertedElement {
             qp: 0,
             det_f: theta,

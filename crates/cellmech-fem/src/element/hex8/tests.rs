@@ -109,6 +109,10 @@ fn finite_difference_consistency_both_formulations() {
                     "{form:?} K/G={ratio}: residual→tangent {j:?}"
                 );
                 let s = symmetry_error(&k, 24);
+                eprintln!(
+                    "{form:?} K/G={ratio} seed={seed}: grad rel {:.2e}, jac rel {:.2e}, sym {s:.1e}",
+                    g.relative_error, j.relative_error
+                );
                 assert!(s < 1e-13, "{form:?}: symmetry error {s:e}");
                 // Residual without tangent equals residual with tangent.
                 let mut res2 = [0.0; 24];
@@ -193,6 +197,7 @@ fn homogeneous_deformation_is_exact_on_distorted_element() {
         let c = resp.cauchy;
         let got = Matrix3::new(c[0], c[3], c[5], c[3], c[1], c[4], c[5], c[4], c[2]);
         let err = (got - closed).norm() / closed.norm();
+        eprintln!("{form:?}: homogeneous Cauchy rel error {err:.2e}");
         assert!(err < 1e-10, "{form:?}: Cauchy relative error {err:e}");
         assert!((resp.volume_ratio - j).abs() < 1e-12);
         assert!((resp.pressure + closed.trace() / 3.0).abs() < 1e-10 * closed.norm());
@@ -233,6 +238,7 @@ fn uniaxial_response_matches_analytic() {
         for form in FORMS {
             let resp = hex8_response(&r, &m, form, &u).expect("admissible");
             let rel = (resp.cauchy[0] - s.cauchy).abs() / s.cauchy.abs();
+            eprintln!("{form:?} λ={lam}: uniaxial σ_xx rel error {rel:.2e}");
             assert!(rel < 1e-10, "{form:?} λ={lam}: σ_xx rel error {rel:e}");
             for k in 1..6 {
                 assert!(
@@ -269,6 +275,10 @@ fn mean_dilatation_has_exactly_one_volumetric_constraint() {
     let threshold = 1e3 * g;
     let (n_md, ev_md) = stiff_count(Hex8Formulation::MeanDilatation, ratio, threshold);
     let (n_d, ev_d) = stiff_count(Hex8Formulation::Displacement, ratio, threshold);
+    eprintln!(
+        "stiff eigenvalues: MD {n_md} (largest {:.3e}, next {:.3e}); displacement {n_d}",
+        ev_md[0], ev_md[1]
+    );
     assert_eq!(n_md, 1, "MD eigenvalues {ev_md:?}");
     assert!(n_d > 1, "displacement eigenvalues {ev_d:?}");
     // Six rigid-body modes: six (numerically) zero eigenvalues, the rest positive.
