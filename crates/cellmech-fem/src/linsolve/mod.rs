@@ -6,9 +6,22 @@
 //! pattern, and [`LinearSolver::solve_in_place`] solves with the last factorisation.
 
 mod dense;
+mod faer_solver;
+pub mod ordering;
 mod pattern;
+pub mod test_matrices;
+#[cfg(test)]
+mod tests;
 pub use dense::DenseSolver;
+pub use faer_solver::{AnalysisInfo, FaerSparseSolver};
+pub use ordering::FillOrdering;
 pub use pattern::SparsityPattern;
+
+/// The default solver of the engine: [`FaerSparseSolver`] with nested dissection on `threads`
+/// rayon threads (`0`: rayon's current pool).
+pub fn default_solver(threads: usize) -> Box<dyn LinearSolver> {
+    Box::new(FaerSparseSolver::new(threads))
+}
 
 /// How the last numeric factorisation was done.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]

@@ -1,0 +1,323 @@
+//! Tests of [`FaerSparseSolver`] against the [`LinearSolver`] contract.
+
+use super::ordering::is_permutation;
+use super::test_matrices::{hex_elasticity, TestMatrix};
+use super::*;
+
+fn rhs(n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| ((i * 37 + 11) % 101) as f64 / 101.0 - 0.4)
+        .collect()
+}
+
+fn relative_residual(p: &SparsityPattern, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
+    let mut ax = vec![0.0; p.n];
+    p.sym_mul(values, x, &mut ax);
+    let r: f64 = ax
+        .iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    r / b.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+fn solve(solver: &mut FaerSparseSolver, m: &TestMatrix) -> (FactorInfo, f64, Vec<f64>) {
+    let info = solver.factorize(&m.values).expect("factorize");
+    let b = rhs(m.pattern.n);
+    let mut x = b.clone();
+    solver.solve_in_place(&mut x).expect("solve");
+    (info, relative_residual(&m.pattern, &m.values, &x, &b), x)
+}
+
+fn dense(m: &TestMatrix) -> nalgebra::DMatrix<f64> {
+    let p = &m.pattern;
+    let mut a = nalgebra::DMatrix::zeros(p.n, p.n);
+    for c in 0..p.n {
+        for k in p.col_ptr[c]..p.col_ptr[c + 1] {
+            a[(p.row_idx[k], c)] = m.values[k];
+            a[(c, p.row_idx[k])] = m.values[k];
+        }
+    }
+    a
+}
+
+fn shift_diagonal(m: &TestMatrix, sigma: f64) -> TestMatrix {
+    let mut s = m.clone();
+    for c in 0..m.pattern.n {
+        s.values[m.pattern.col_ptr[c]] -= sigma;
+    }
+    s
+}
+
+#[test]
+fn spd_elasticity_solves_to_machine_precision_with_every_ordering() {
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.45);
+    for ordering in [
+        FillOrdering::NestedDissection,
+        FillOrdering::Amd,
+        FillOrdering::Natural,
+    ] {
+        let mut solver = FaerSparseSolver::new(2).with_ordering(ordering);
+        solver.analyze(&m.pattern).expect("analyze");
+        let perm = solver.permutation().expect("permutation");
+        assert!(is_permutation(perm, m.pattern.n), "{ordering:?}");
+        let (info, res, _) = solve(&mut solver, &m);
+        assert_eq!(
+            info,
+            FactorInfo {
+                method: FactorMethod::Cholesky,
+                negative_pivots: Some(0)
+            }
+        );
+        assert!(res < 1e-10, "{ordering:?}: residual {res:e}");
+    }
+}
+
+#[test]
+fn solution_matches_dense_reference() {
+    let m = hex_elasticity(3, 3, 3, 1.0, 0.3);
+    let mut solver = FaerSparseSolver::new(1);
+    solver.analyze(&m.pattern).expect("analyze");
+    let (_, _, x) = solve(&mut solver, &m);
+    let reference = dense(&m)
+        .cholesky()
+        .expect("SPD")
+        .solve(&nalgebra::DVector::from_vec(rhs(m.pattern.n)));
+    let err = x
+        .iter()
+        .zip(reference.iter())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let scale = reference.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    assert!(err < 1e-10 * scale, "max error {err:e} vs |x| {scale:e}");
+}
+
+#[test]
+fn indefinite_matrix_falls_back_to_ldlt_and_reports_the_inertia() {
+    let spd = hex_elasticity(3, 3, 2, 1.0, 0.3);
+    // Shift between two well-separated eigenvalues so that the inertia is unambiguous.
+    let mut eig: Vec<f64> = dense(&spd)
+        .symmetric_eigenvalues()
+        .iter()
+        .copied()
+        .collect();
+    eig.sort_by(f64::total_cmp);
+    let k = (eig.len() / 3..eig.len() / 2)
+        .max_by(|&i, &j| (eig[i + 1] - eig[i]).total_cmp(&(eig[j + 1] - eig[j])))
+        .expect("non-empty range");
+    let sigma = 0.5 * (eig[k] + eig[k + 1]);
+    let m = shift_diagonal(&spd, sigma);
+    let mut solver = FaerSparseSolver::new(2);
+    solver.analyze(&m.pattern).expect("analyze");
+    let (info, res, _) = solve(&mut solver, &m);
+    assert_eq!(info.method, FactorMethod::Ldlt);
+    assert_eq!(
+        info.negative_pivots,
+        Some(k + 1),
+        "eigenvalues below the shift: {}",
+        k + 1
+    );
+    assert!(res < 1e-10, "residual {res:e}");
+}
+
+#[test]
+fn fallback_policy_starts_with_ldlt_after_a_failure_and_returns_to_cholesky() {
+    let spd = hex_elasticity(4, 3, 3, 1.0, 0.3);
+    let diag_mean = (0..spd.pattern.n)
+        .map(|c| spd.values[spd.pattern.col_ptr[c]])
+        .sum::<f64>()
+        / spd.pattern.n as f64;
+    let indefinite = shift_diagonal(&spd, 0.37 * diag_mean);
+    let mut solver = FaerSparseSolver::new(2);
+    solver.analyze(&spd.pattern).expect("analyze");
+    let methods: Vec<FactorMethod> = [&spd, &indefinite, &spd, &spd]
+        .iter()
+        .map(|m| {
+            let (info, res, _) = solve(&mut solver, m);
+            assert!(res < 1e-10, "residual {res:e} with {:?}", info.method);
+            info.method
+        })
+        .collect();
+    use FactorMethod::{Cholesky, Ldlt};
+    // Second SPD call: LBLᵀ first (policy), finds no negative pivot, so the third uses LLᵀ.
+    assert_eq!(methods, vec![Cholesky, Ldlt, Ldlt, Cholesky]);
+}
+
+#[test]
+fn repeated_factorizations_on_one_pattern_give_the_right_answer_each_time() {
+    let base = hex_elasticity(6, 5, 4, 1.0, 0.3);
+    let mut solver = FaerSparseSolver::new(2);
+    solver.analyze(&base.pattern).expect("analyze");
+    let (_, _, x1) = solve(&mut solver, &base);
+    for (scale, sigma) in [(2.0, 0.0), (0.25, -0.1), (7.0, -0.3), (1.0, 0.0)] {
+        let mut m = base.clone();
+        m.values.iter_mut().for_each(|v| *v *= scale);
+        let m = shift_diagonal(&m, sigma);
+        let (info, res, x) = solve(&mut solver, &m);
+        assert!(
+            res < 1e-10,
+            "scale {scale}, shift {sigma}: residual {res:e}"
+        );
+        assert_eq!(info.method, FactorMethod::Cholesky);
+        if sigma == 0.0 {
+            // Scaling A by s scales the solution by 1/s.
+            let err = x
+                .iter()
+                .zip(&x1)
+                .map(|(a, b)| (a * scale - b).abs())
+                .fold(0.0, f64::max);
+            assert!(err < 1e-10 * x1.iter().map(|v| v.abs()).fold(0.0, f64::max));
+        }
+    }
+}
+
+#[test]
+fn singular_matrices_return_singular_not_panic() {
+    // Graph Laplacian of a 3-D grid (rows sum to zero): singular positive semi-definite.
+    let (nx, ny, nz) = (5, 4, 3);
+    let id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
+    let mut edges = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if i + 1 < nx {
+                    edges.push([id(i, j, k), id(i + 1, j, k)]);
+                }
+                if j + 1 < ny {
+                    edges.push([id(i, j, k), id(i, j + 1, k)]);
+                }
+                if k + 1 < nz {
+                    edges.push([id(i, j, k), id(i, j, k + 1)]);
+                }
+            }
+        }
+    }
+    let n = nx * ny * nz;
+    let pattern = SparsityPattern::from_cliques(n, edges.iter().map(|e| &e[..]));
+    let mut values = vec![0.0; pattern.nnz()];
+    for [a, b] in &edges {
+        let (lo, hi) = (*a.min(b), *a.max(b));
+        for (r, c, v) in [(lo, lo, 1.0), (hi, hi, 1.0), (hi, lo, -1.0)] {
+            values[pattern.position(r, c).expect("in pattern")] += v;
+        }
+    }
+    let mut solver = FaerSparseSolver::new(2);
+    solver.analyze(&pattern).expect("analyze");
+    let result = solver.factorize(&values);
+    assert!(
+        matches!(result, Err(LinSolveError::Singular(_))),
+        "{result:?}"
+    );
+    let mut x = vec![1.0; n];
+    assert!(matches!(
+        solver.solve_in_place(&mut x),
+        Err(LinSolveError::Usage(_))
+    ));
+
+    // An SPD matrix with one equation decoupled and zero: exactly singular.
+    let m = hex_elasticity(3, 3, 3, 1.0, 0.3);
+    let mut values = m.values.clone();
+    let dead = 17;
+    for c in 0..m.pattern.n {
+        for k in m.pattern.col_ptr[c]..m.pattern.col_ptr[c + 1] {
+            if c == dead || m.pattern.row_idx[k] == dead {
+                values[k] = 0.0;
+            }
+        }
+    }
+    solver.analyze(&m.pattern).expect("analyze");
+    match solver.factorize(&values) {
+        Err(LinSolveError::Singular(msg)) => {
+            assert!(msg.contains("Cholesky") && msg.contains("LU"))
+        }
+        other => panic!("expected Singular, got {other:?}"),
+    }
+    // The solver stays usable: the original matrix factorises again.
+    let (info, res, _) = solve(&mut solver, &m);
+    assert!(
+        res < 1e-10 && info.method != FactorMethod::Lu,
+        "{info:?} {res:e}"
+    );
+}
+
+#[test]
+fn misuse_returns_usage_errors() {
+    let m = hex_elasticity(2, 2, 2, 1.0, 0.3);
+    let mut solver = FaerSparseSolver::default();
+    assert!(matches!(
+        solver.factorize(&m.values),
+        Err(LinSolveError::Usage(_))
+    ));
+    let mut x = vec![0.0; m.pattern.n];
+    assert!(matches!(
+        solver.solve_in_place(&mut x),
+        Err(LinSolveError::Usage(_))
+    ));
+    solver.analyze(&m.pattern).expect("analyze");
+    assert!(matches!(
+        solver.solve_in_place(&mut x),
+        Err(LinSolveError::Usage(_))
+    ));
+    assert!(matches!(
+        solver.factorize(&m.values[1..]),
+        Err(LinSolveError::Usage(_))
+    ));
+    solver.factorize(&m.values).expect("factorize");
+    assert!(matches!(
+        solver.solve_in_place(&mut x[1..]),
+        Err(LinSolveError::Usage(_))
+    ));
+    // Malformed patterns: upper-triangle entry, missing diagonal.
+    let bad = SparsityPattern {
+        n: 2,
+        col_ptr: vec![0, 1, 3],
+        row_idx: vec![0, 0, 1],
+    };
+    assert!(matches!(solver.analyze(&bad), Err(LinSolveError::Usage(_))));
+    let bad = SparsityPattern {
+        n: 2,
+        col_ptr: vec![0, 1, 1],
+        row_idx: vec![1],
+    };
+    assert!(matches!(solver.analyze(&bad), Err(LinSolveError::Usage(_))));
+}
+
+#[test]
+fn one_and_two_threads_agree() {
+    let m = hex_elasticity(7, 6, 6, 1.0, 0.3);
+    let mut solutions = Vec::new();
+    for threads in [1, 2] {
+        let mut solver = FaerSparseSolver::new(threads);
+        solver.analyze(&m.pattern).expect("analyze");
+        solutions.push(solve(&mut solver, &m).2);
+    }
+    let err = solutions[0]
+        .iter()
+        .zip(&solutions[1])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-10 * solutions[0].iter().map(|v| v.abs()).fold(0.0, f64::max));
+}
+
+#[test]
+fn nested_dissection_fills_less_than_amd_on_a_3d_grid() {
+    let m = hex_elasticity(14, 14, 14, 1.0, 0.3);
+    let mut fill = Vec::new();
+    for ordering in [FillOrdering::NestedDissection, FillOrdering::Amd] {
+        let mut solver = FaerSparseSolver::new(2).with_ordering(ordering);
+        solver.analyze(&m.pattern).expect("analyze");
+        let info = solver.analysis_info().expect("info");
+        assert!(
+            info.nnz_l <= info.stored_l,
+            "exact count below the stored count"
+        );
+        fill.push(info.nnz_l);
+    }
+    assert!(
+        fill[0] < fill[1],
+        "ND nnz(L) {} vs AMD {}",
+        fill[0],
+        fill[1]
+    );
+}
