@@ -592,4 +592,24 @@ $EndElements
             );
         }
     }
+
+    #[test]
+    fn reads_a_file_written_by_meshio() {
+        // tests/data/meshio_two_hexes.msh: written by meshio 5.3.5 (no $Entities section, so
+        // the physical group cannot be attached and the block is named after the entity).
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/meshio_two_hexes.msh");
+        let mesh = read_gmsh(&path).unwrap();
+        assert_eq!(mesh.num_nodes(), 12);
+        assert_eq!(mesh.nodes[11], [2.0, 1.0, 1.0]);
+        let block = mesh.block("entity_3_1").unwrap();
+        assert_eq!(block.kind, ElementKind::Hex8);
+        assert_eq!(block.element(1), &[1, 2, 5, 4, 7, 8, 11, 10]);
+        let missing = read_gmsh(Path::new("/nonexistent/x.msh")).unwrap_err();
+        assert!(
+            missing
+                .to_string()
+                .starts_with("cannot read /nonexistent/x.msh"),
+            "{missing}"
+        );
+    }
 }

@@ -145,6 +145,8 @@ mod tests {
             )],
         };
         let xml = vtu_string(&frame).unwrap();
+        // Kept on disk for external readers (ParaView, meshio).
+        write_vtu(&scratch_dir("vtu").join("roundtrip.vtu"), &frame).unwrap();
         assert!(xml.contains("NumberOfPoints=\"9\" NumberOfCells=\"2\""));
         let (_, p) = array(&xml, "Points");
         assert_eq!(
