@@ -457,6 +457,12 @@ impl Parser {
                     format!("GENERATE needs start <= end and step > 0, found '{line}'"),
                 ));
             }
+            if (end - start) / step >= 100_000_000 {
+                return Err(lines.error(
+                    no,
+                    format!("GENERATE range of more than 10^8 labels, found '{line}'"),
+                ));
+            }
             return Ok((start..=end)
                 .step_by(step as usize)
                 .map(Member::Label)

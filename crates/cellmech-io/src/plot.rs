@@ -212,16 +212,26 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, spec: &PlotSpec) -> Re
                 .draw_series(points.iter().map(|&p| Circle::new(p, 3, color.filled())))
                 .map_err(e)?;
         }
-        // An invisible empty series carries the legend entry, whatever the style.
-        chart
+        // An invisible empty series carries the legend entry, drawn in the series' style.
+        let entry = chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
             .map_err(e)?
-            .label(series.label.as_str())
-            .legend(move |(x, y)| {
-                EmptyElement::at((x, y))
-                    + PathElement::new(vec![(0, 0), (20, 0)], style)
-                    + Circle::new((10, 0), 3, color.filled())
-            });
+            .label(series.label.as_str());
+        match series.style {
+            SeriesStyle::Line => {
+                entry.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+            }
+            SeriesStyle::Markers => {
+                entry.legend(move |(x, y)| Circle::new((x + 10, y), 3, color.filled()));
+            }
+            SeriesStyle::LineAndMarkers => {
+                entry.legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + PathElement::new(vec![(0, 0), (20, 0)], style)
+                        + Circle::new((10, 0), 3, color.filled())
+                });
+            }
+        }
     }
     if !spec.series.is_empty() {
         chart
