@@ -1,0 +1,73 @@
+//! Command-line arguments.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+/// Virtual mechanical tests on single living cells (finite elements).
+///
+/// A scenario file (TOML, quantities with units like "0.5 kPa" or "2 um") describes the mesh,
+/// the materials, the analysis steps and the outputs. `cellmech run` solves it and writes the
+/// force curve (curve.csv and a plot), the convergence table, a ParaView series (fields.pvd)
+/// and summary.json into the output directory.
+///
+/// Examples:
+///   cellmech run                                  # the built-in default test
+///   cellmech run examples/sphere-compression.toml --out results/sphere
+///   cellmech check my-cell.toml                    # validate without solving
+///   cellmech example sphere-compression > my.toml  # start from a shipped scenario
+#[derive(Debug, Parser)]
+#[command(name = "cellmech", version, about, long_about, verbatim_doc_comment)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Solve a scenario and write its outputs.
+    ///
+    /// Without a scenario, runs the built-in default. Every converged increment is written
+    /// as it is produced (curve.csv, convergence.csv, fields/*.vtu + fields.pvd); a diverging
+    /// analysis stops cleanly with exit code 1 and keeps them.
+    Run(RunArgs),
+    /// Read and validate a scenario (mesh, sets, materials, steps) without solving.
+    Check(CheckArgs),
+    /// Print a built-in example scenario (list them without a name).
+    Example(ExampleArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Scenario file (TOML). Default: the built-in default scenario.
+    pub scenario: Option<PathBuf>,
+    /// Output directory.
+    #[arg(short, long, default_value = "cellmech-out")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// Scenario file (TOML).
+    pub scenario: PathBuf,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct ExampleArgs {
+    /// Name of the example.
+    pub name: Option<String>,
+}
+
+#[derive(Debug, Args, Clone, Copy)]
+pub struct ReportArgs {
+    /// No progress bars or messages; errors still go to stderr.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Print a machine-readable JSON result on stdout (implies --quiet for progress).
+    #[arg(long)]
+    pub json: bool,
+}

@@ -1,0 +1,18 @@
+//! Subcommands.
+
+mod check;
+mod example;
+mod run;
+
+use std::process::ExitCode;
+
+use crate::args::{Cli, Command};
+
+/// Runs the chosen subcommand. `Err` is a usage or input error (exit code 2).
+pub fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Run(args) => run::run(&args),
+        Command::Check(args) => check::check(&args),
+        Command::Example(args) => example::example(&args),
+    }
+}

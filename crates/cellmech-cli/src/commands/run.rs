@@ -1,0 +1,79 @@
+//! `cellmech run`.
+
+use std::process::ExitCode;
+
+use anyhow::Context;
+use cellmech::run::{RunError, RunSummary};
+use cellmech_fem::solve::NullObserver;
+
+use crate::args::RunArgs;
+use crate::progress::StepProgress;
+
+pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
+    let scenario = match &args.scenario {
+        Some(path) => cellmech::scenario::load(path)
+            .with_context(|| format!("reading scenario {}", path.display()))?,
+        None => cellmech::examples::default_scenario().context("the built-in default scenario")?,
+    };
+    let quiet = args.report.quiet || args.report.json;
+    if !quiet {
+        eprintln!(
+            "cellmech {}: {} ({})",
+            env!("CARGO_PKG_VERSION"),
+            scenario.title,
+            scenario.origin
+        );
+    }
+    let mut progress = StepProgress::new(scenario.steps.len());
+    let mut null = NullObserver;
+    let observer: &mut dyn cellmech_fem::solve::Observer =
+        if quiet { &mut null } else { &mut progress };
+    let result = cellmech::run::run(&scenario, &args.out, observer);
+    progress.finish();
+    match result {
+        Ok(summary) => {
+            report(args, &summary);
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(RunError::Analysis {
+            error,
+            out_dir,
+            summary,
+        }) => {
+            report(args, &summary);
+            eprintln!("error: the analysis stopped: {error}");
+            eprintln!(
+                "every converged increment is written in {}",
+                out_dir.display()
+            );
+            Ok(ExitCode::from(1))
+        }
+        Err(other) => Err(other.into()),
+    }
+}
+
+fn report(args: &RunArgs, summary: &RunSummary) {
+    if args.report.json {
+        match serde_json::to_string(summary) {
+            Ok(text) => println!("{text}"),
+            Err(e) => eprintln!("error: cannot encode the summary: {e}"),
+        }
+        return;
+    }
+    if args.report.quiet {
+        return;
+    }
+    let iterations: usize = summary.steps.iter().map(|s| s.iterations).sum();
+    let increments: usize = summary.steps.iter().map(|s| s.increments).sum();
+    eprintln!(
+        "{}: {} increments, {} Newton iterations, {:.2} s ({} dofs)",
+        summary.status, increments, iterations, summary.wall_time_s, summary.size.dofs
+    );
+    for (name, value) in &summary.final_values {
+        eprintln!("  {name} = {value:.6}");
+    }
+    eprintln!("outputs in {}:", args.out.display());
+    for f in &summary.files {
+        eprintln!("  {}", args.out.join(f).display());
+    }
+}

@@ -1,0 +1,56 @@
+//! Scenarios shipped with cellmech (the files in `examples/`), embedded in the binary.
+
+use std::path::Path;
+
+use crate::scenario::{parse, Scenario, ScenarioError};
+
+/// A shipped example scenario.
+#[derive(Debug, Clone, Copy)]
+pub struct Example {
+    /// Name (the file stem in `examples/`).
+    pub name: &'static str,
+    /// One line on what it models.
+    pub summary: &'static str,
+    /// The scenario text.
+    pub text: &'static str,
+}
+
+/// Every shipped example.
+pub const EXAMPLES: &[Example] = &[
+    Example {
+        name: "sphere-compression",
+        summary: "soft neo-Hookean sphere squeezed by its polar caps to 30 % (default)",
+        text: include_str!("../../../examples/sphere-compression.toml"),
+    },
+    Example {
+        name: "block-uniaxial",
+        summary: "neo-Hookean block stretched to twice its length (closed-form check)",
+        text: include_str!("../../../examples/block-uniaxial.toml"),
+    },
+];
+
+/// The example run by `cellmech run` without a scenario.
+pub const DEFAULT_EXAMPLE: &str = "sphere-compression";
+
+/// The example with this name.
+pub fn find(name: &str) -> Option<&'static Example> {
+    EXAMPLES.iter().find(|e| e.name == name)
+}
+
+/// Parses a shipped example.
+pub fn scenario(example: &Example) -> Result<Scenario, ScenarioError> {
+    parse(
+        example.text,
+        &format!("<built-in: {}>", example.name),
+        Path::new("."),
+    )
+}
+
+/// The built-in default scenario.
+pub fn default_scenario() -> Result<Scenario, ScenarioError> {
+    let example = find(DEFAULT_EXAMPLE).ok_or_else(|| ScenarioError::Parse {
+        path: "<built-in>".into(),
+        message: format!("no example named {DEFAULT_EXAMPLE}"),
+    })?;
+    scenario(example)
+}

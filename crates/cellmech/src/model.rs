@@ -1,0 +1,116 @@
+//! From a resolved scenario to an engine problem: DOFs, terms, steps and curve DOFs.
+
+use cellmech_fem::continuum::ContinuumBlock;
+use cellmech_fem::dof::DofMap;
+use cellmech_fem::linsolve::FaerSparseSolver;
+use cellmech_fem::solve::{Motion, NodalLoad, Problem, SolveError, Step};
+use cellmech_fem::term::Term;
+
+use crate::scenario::{Scenario, StepSpec};
+
+/// A curve request turned into DOFs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurveDofs {
+    /// Column prefix.
+    pub name: String,
+    /// Component name (`x`, `y`, `z`).
+    pub component: char,
+    /// The DOFs of the node set in that component.
+    pub dofs: Vec<usize>,
+    /// +1 or -1.
+    pub sign: f64,
+}
+
+/// An engine problem ready to run, with its steps.
+pub struct BuiltModel {
+    /// The problem (pattern and symbolic factorisation done).
+    pub problem: Problem,
+    /// Engine steps in order.
+    pub steps: Vec<Step>,
+    /// Curve DOFs.
+    pub curves: Vec<CurveDofs>,
+}
+
+/// Why a model could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// A continuum block is unsupported or has a bad element.
+    #[error("{0}")]
+    Continuum(#[from] cellmech_fem::continuum::ContinuumBlockError),
+    /// The engine rejected the problem.
+    #[error("{0}")]
+    Solve(#[from] SolveError),
+}
+
+/// Builds the engine problem for `scenario`.
+pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
+    let mesh = &scenario.mesh;
+    let dof_map = DofMap::translational(mesh.num_nodes());
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    for assignment in &scenario.materials {
+        // resolve() guarantees the block exists.
+        if let Some(block) = mesh.block(&assignment.element_set) {
+            terms.push(Box::new(ContinuumBlock::new(
+                block,
+                &mesh.nodes,
+                assignment.law,
+                assignment.formulation,
+            )?));
+        }
+    }
+    let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
+    let steps = scenario
+        .steps
+        .iter()
+        .map(|s| engine_step(s, &set, &dof_map))
+        .collect();
+    let curves = scenario
+        .output
+        .curves
+        .iter()
+        .map(|c| CurveDofs {
+            name: c.name.clone(),
+            component: ['x', 'y', 'z'][c.component],
+            dofs: set(&c.node_set)
+                .iter()
+                .map(|&n| dof_map.dof(n, c.component))
+                .collect(),
+            sign: c.sign,
+        })
+        .collect();
+    let problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))?;
+    Ok(BuiltModel {
+        problem,
+        steps,
+        curves,
+    })
+}
+
+fn engine_step<'a>(spec: &StepSpec, set: &impl Fn(&str) -> &'a [usize], dofs: &DofMap) -> Step {
+    let mut step = Step::new(spec.name.clone());
+    step.control = spec.control;
+    let mut motion: std::collections::BTreeMap<usize, Motion> = Default::default();
+    for (name, comps) in &spec.fixes {
+        for &node in set(name) {
+            for c in (0..3).filter(|&c| comps[c]) {
+                motion.entry(dofs.dof(node, c)).or_insert(Motion::Hold);
+            }
+        }
+    }
+    for (name, c, value) in &spec.displacements {
+        for &node in set(name) {
+            motion.insert(dofs.dof(node, *c), Motion::By(*value));
+        }
+    }
+    step.prescribed = motion.into_iter().collect();
+    for (name, c, total) in &spec.forces {
+        let nodes = set(name);
+        for &node in nodes {
+            step.loads.push(NodalLoad {
+                dof: dofs.dof(node, *c),
+                value: total / nodes.len() as f64,
+            });
+        }
+    }
+    step
+}

@@ -1,0 +1,245 @@
+//! Writers attached to a run as observers: the force curve (`curve.csv`), the convergence
+//! table (`convergence.csv`) and the ParaView series (`fields/*.vtu` + `fields.pvd`). Every
+//! file is written as results are produced, through atomic replacement, so a crash keeps
+//! every converged increment.
+
+use std::path::{Path, PathBuf};
+
+use cellmech_fem::element::KernelError;
+use cellmech_fem::solve::{FailureReason, IncrementReport, IterationReport, Observer, Problem};
+use cellmech_io::{CurveWriter, Field, PvdSeries, VtuBlock, VtuFrame};
+
+use crate::model::{BuiltModel, CurveDofs};
+
+/// Convergence statistics of one step.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct StepStats {
+    /// Step name.
+    pub name: String,
+    /// Converged increments.
+    pub increments: usize,
+    /// Newton iterations over all attempts.
+    pub iterations: usize,
+    /// Failed attempts that were cut back.
+    pub cutbacks: usize,
+    /// The reasons of the cutbacks.
+    pub cutback_reasons: Vec<String>,
+}
+
+/// Writes outputs as the solver converges increments.
+pub struct OutputWriter {
+    curves: Vec<CurveDofs>,
+    /// Column names of `curve.csv` (with units).
+    pub header: Vec<String>,
+    /// Every converged row of `curve.csv`.
+    pub rows: Vec<Vec<f64>>,
+    /// Increments and iterations per step, and cutbacks.
+    pub stats: Vec<StepStats>,
+    /// The first output error, if any (the run stops on it).
+    pub error: Option<String>,
+    curve_csv: CurveWriter,
+    convergence_csv: CurveWriter,
+    pvd: PvdSeries,
+    vtk_every: usize,
+    attempt: usize,
+    nodes: Vec<[f64; 3]>,
+}
+
+impl OutputWriter {
+    /// Creates the output files in `dir` (which must exist) for this model.
+    pub fn new(
+        dir: &Path,
+        model: &BuiltModel,
+        nodes: Vec<[f64; 3]>,
+        vtk_every: usize,
+    ) -> Result<Self, String> {
+        let mut header = vec!["step".to_string(), "increment".into(), "time".into()];
+        for c in &model.curves {
+            header.push(format!("{}_u{}_um", c.name, c.component));
+            header.push(format!("{}_f{}_nN", c.name, c.component));
+        }
+        let p = &model.problem;
+        for term in p.terms() {
+            header.extend(
+                term.scalar_outputs(p.u(), p.dof_map())
+                    .into_iter()
+                    .map(|(n, _)| n),
+            );
+        }
+        let columns: Vec<&str> = header.iter().map(String::as_str).collect();
+        let curve_csv =
+            CurveWriter::create(&dir.join("curve.csv"), &columns).map_err(|e| e.to_string())?;
+        let convergence_header = [
+            "step",
+            "attempt",
+            "iteration",
+            "residual_ratio",
+            "energy_ratio",
+            "force_scale_nN",
+            "line_search",
+            "correction_norm_um",
+        ];
+        let convergence_csv =
+            CurveWriter::create(&dir.join("convergence.csv"), &convergence_header)
+                .map_err(|e| e.to_string())?;
+        let pvd = PvdSeries::new(dir, "fields").map_err(|e| e.to_string())?;
+        Ok(OutputWriter {
+            curves: model.curves.clone(),
+            header,
+            rows: Vec::new(),
+            stats: Vec::new(),
+            error: None,
+            curve_csv,
+            convergence_csv,
+            pvd,
+            vtk_every,
+            attempt: 0,
+            nodes,
+        })
+    }
+
+    /// Path of the ParaView series file.
+    pub fn pvd_path(&self) -> PathBuf {
+        self.pvd.pvd_path()
+    }
+
+    /// The column with this name, over all rows.
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        let k = self.header.iter().position(|h| h == name)?;
+        Some(self.rows.iter().map(|r| r[k]).collect())
+    }
+
+    /// Appends a `curve.csv` row for the problem's current state (and a VTU frame when
+    /// `with_frame`). Called for the initial state and after every converged increment.
+    pub fn record_state(
+        &mut self,
+        problem: &Problem,
+        step: usize,
+        increment: usize,
+        time: f64,
+        with_frame: bool,
+    ) {
+        let mut row = vec![step as f64, increment as f64, time];
+        for c in &self.curves {
+            let u =
+                c.dofs.iter().map(|&d| problem.u()[d]).sum::<f64>() / c.dofs.len().max(1) as f64;
+            row.push(u);
+            row.push(c.sign * problem.reaction_sum(c.dofs.iter().copied()));
+        }
+        for term in problem.terms() {
+            row.extend(
+                term.scalar_outputs(problem.u(), problem.dof_map())
+                    .into_iter()
+                    .map(|(_, v)| v),
+            );
+        }
+        let result = self.curve_csv.push_row(&row);
+        self.record(result);
+        self.rows.push(row);
+        if with_frame {
+            let result = write_frame(&mut self.pvd, time, problem, &self.nodes);
+            self.record(result);
+        }
+    }
+
+    fn record<T, E: std::fmt::Display>(&mut self, result: Result<T, E>) {
+        if let Err(e) = result {
+            self.error.get_or_insert(e.to_string());
+        }
+    }
+}
+
+impl Observer for OutputWriter {
+    fn on_step_start(&mut self, _index: usize, name: &str) {
+        self.stats.push(StepStats {
+            name: name.into(),
+            ..Default::default()
+        });
+        self.attempt = 0;
+    }
+
+    fn on_iteration(&mut self, r: &IterationReport) {
+        let step = self.stats.len().saturating_sub(1);
+        if let Some(s) = self.stats.last_mut() {
+            s.iterations += 1;
+        }
+        let row = [
+            step as f64,
+            self.attempt as f64,
+            r.iteration as f64,
+            r.residual_ratio,
+            r.energy_ratio,
+            r.force_scale,
+            r.line_search,
+            r.correction_norm,
+        ];
+        let result = self.convergence_csv.push_row(&row);
+        self.record(result);
+    }
+
+    fn on_increment(&mut self, problem: &Problem, report: &IncrementReport<'_>) {
+        self.attempt += 1;
+        if let Some(s) = self.stats.last_mut() {
+            s.increments += 1;
+        }
+        let step_end = (report.step_time - 1.0).abs() < 1e-12;
+        let due = step_end || (self.vtk_every > 0 && report.increment % self.vtk_every == 0);
+        self.record_state(
+            problem,
+            report.step_index,
+            report.increment,
+            report.total_time,
+            due,
+        );
+    }
+
+    fn on_cutback(&mut self, _t: f64, _dt: f64, reason: &FailureReason) {
+        self.attempt += 1;
+        if let Some(s) = self.stats.last_mut() {
+            s.cutbacks += 1;
+            s.cutback_reasons.push(reason.to_string());
+        }
+    }
+}
+
+/// Writes the current state as one frame of the series: reference points with the
+/// displacement field (use ParaView's "Warp By Vector"), and every term's cells with their
+/// fields.
+pub fn write_frame(
+    pvd: &mut PvdSeries,
+    time: f64,
+    problem: &Problem,
+    nodes: &[[f64; 3]],
+) -> Result<(), String> {
+    let map = problem.dof_map();
+    let displacement: Vec<f64> = (0..nodes.len())
+        .flat_map(|n| (0..3).map(move |c| problem.u()[map.dof(n, c)]))
+        .collect();
+    let mut outputs = Vec::new();
+    for term in problem.terms() {
+        let output: Option<_> = term
+            .outputs(problem.u(), map)
+            .map_err(|e: KernelError| format!("outputs of '{}': {e}", term.name()))?;
+        outputs.extend(output);
+    }
+    let blocks = outputs
+        .iter()
+        .map(|o| VtuBlock {
+            kind: o.kind,
+            connectivity: &o.connectivity,
+            cell_data: o
+                .fields
+                .iter()
+                .map(|f| Field::new(f.name.clone(), f.components, f.values.clone()))
+                .collect(),
+        })
+        .collect();
+    let frame = VtuFrame {
+        points: nodes,
+        blocks,
+        point_data: vec![Field::new("displacement_um", 3, displacement)],
+    };
+    pvd.add_frame(time, &frame)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}

@@ -1,0 +1,60 @@
+//! Plots of a run's curves, made from the rows the output writer collected.
+
+use std::path::Path;
+
+use cellmech_io::{plot_xy, PlotSpec, Series, SeriesStyle};
+
+use crate::output::OutputWriter;
+use crate::scenario::Scenario;
+
+/// Draws the force–displacement curve of every requested curve (one file per curve), and
+/// of every rigid tool (force along its motion vs its displacement), and returns the file
+/// names written.
+pub fn plot_curves(
+    scenario: &Scenario,
+    writer: &OutputWriter,
+    dir: &Path,
+) -> Result<Vec<String>, String> {
+    let extension = scenario.output.plot_format.extension();
+    let mut files = Vec::new();
+    let mut plot =
+        |file: String, x_label: &str, y_label: &str, x: Vec<f64>, y: Vec<f64>, label: &str| {
+            let spec = PlotSpec {
+                title: scenario.title.clone(),
+                x_label: x_label.into(),
+                y_label: y_label.into(),
+                series: vec![Series {
+                    label: label.into(),
+                    points: x.into_iter().zip(y).collect(),
+                    style: SeriesStyle::LineAndMarkers,
+                }],
+            };
+            plot_xy(&dir.join(&file), &spec).map_err(|e| e.to_string())?;
+            files.push(file);
+            Ok::<(), String>(())
+        };
+    for (k, curve) in scenario.output.curves.iter().enumerate() {
+        let c = ["x", "y", "z"][curve.component];
+        let (Some(u), Some(f)) = (
+            writer.column(&format!("{}_u{c}_um", curve.name)),
+            writer.column(&format!("{}_f{c}_nN", curve.name)),
+        ) else {
+            continue;
+        };
+        let file = if k == 0 {
+            format!("curve.{extension}")
+        } else {
+            format!("curve_{}.{extension}", curve.name)
+        };
+        let u = u.iter().map(|v| v.abs()).collect();
+        plot(
+            file,
+            &format!("{} displacement |u{c}| (µm)", curve.name),
+            &format!("{} reaction f{c} (nN)", curve.name),
+            u,
+            f,
+            &curve.name,
+        )?;
+    }
+    Ok(files)
+}

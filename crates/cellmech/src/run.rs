@@ -1,0 +1,184 @@
+//! Running a scenario: build the model, run its steps with the output writers attached,
+//! then write the plot and `summary.json` (also when the analysis stops early).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use cellmech_fem::solve::{
+    FailureReason, IncrementReport, IterationReport, Observer, Problem, SolveError, Timings,
+};
+use serde::Serialize;
+
+use crate::model::{build, BuildError};
+use crate::output::{OutputWriter, StepStats};
+use crate::scenario::Scenario;
+
+/// What a run did: written to `summary.json` and returned to the caller.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// cellmech version.
+    pub version: &'static str,
+    /// Scenario title.
+    pub title: String,
+    /// Where the scenario came from.
+    pub scenario: String,
+    /// `completed` or `failed`.
+    pub status: String,
+    /// Why the analysis stopped early, when it did.
+    pub error: Option<String>,
+    /// Seed of random choices (none are made by this scenario).
+    pub seed: Option<u64>,
+    /// Mesh and system size.
+    pub size: SystemSize,
+    /// Per-step convergence statistics.
+    pub steps: Vec<StepStats>,
+    /// Wall-clock seconds: total, and the solver's split.
+    pub wall_time_s: f64,
+    /// Time in assembly, factorisation and solves.
+    pub solver_timings: Timings,
+    /// Every `curve.csv` column at the last converged increment (names carry units).
+    pub final_values: BTreeMap<String, f64>,
+    /// The scenario as parsed (inputs echoed).
+    pub input: toml::Table,
+    /// Files written, relative to the output directory.
+    pub files: Vec<String>,
+}
+
+/// Sizes of the model and its linear system.
+#[derive(Debug, Clone, Serialize)]
+pub struct SystemSize {
+    /// Nodes.
+    pub nodes: usize,
+    /// Elements over all blocks.
+    pub elements: usize,
+    /// Degrees of freedom.
+    pub dofs: usize,
+    /// Stored nonzeros of the tangent (lower triangle).
+    pub tangent_nonzeros: usize,
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The model could not be built.
+    #[error("building the model: {0}")]
+    Build(#[from] BuildError),
+    /// An output could not be written.
+    #[error("writing outputs: {0}")]
+    Output(String),
+    /// The analysis stopped early; every converged increment was written.
+    #[error("the analysis stopped: {error} (converged results are in {})", out_dir.display())]
+    Analysis {
+        /// The solver's reason.
+        error: SolveError,
+        /// Where the outputs are.
+        out_dir: PathBuf,
+        /// The summary (also written to summary.json).
+        summary: Box<RunSummary>,
+    },
+}
+
+/// Forwards every event to two observers.
+struct Tee<'a, 'b>(&'a mut OutputWriter, &'b mut dyn Observer);
+
+impl Observer for Tee<'_, '_> {
+    fn on_step_start(&mut self, i: usize, name: &str) {
+        self.0.on_step_start(i, name);
+        self.1.on_step_start(i, name);
+    }
+    fn on_iteration(&mut self, r: &IterationReport) {
+        self.0.on_iteration(r);
+        self.1.on_iteration(r);
+    }
+    fn on_increment(&mut self, p: &Problem, r: &IncrementReport<'_>) {
+        self.0.on_increment(p, r);
+        self.1.on_increment(p, r);
+    }
+    fn on_cutback(&mut self, t: f64, dt: f64, reason: &FailureReason) {
+        self.0.on_cutback(t, dt, reason);
+        self.1.on_cutback(t, dt, reason);
+    }
+}
+
+/// Runs `scenario`, writing into `out_dir` (created if needed). `progress` sees every
+/// solver event (the CLI's progress bar; pass `&mut NullObserver` for none).
+pub fn run(
+    scenario: &Scenario,
+    out_dir: &Path,
+    progress: &mut dyn Observer,
+) -> Result<RunSummary, RunError> {
+    let start = Instant::now();
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| RunError::Output(format!("cannot create {}: {e}", out_dir.display())))?;
+    let mut model = build(scenario)?;
+    let mut writer = OutputWriter::new(
+        out_dir,
+        &model,
+        scenario.mesh.nodes.clone(),
+        scenario.output.vtk_every,
+    )
+    .map_err(RunError::Output)?;
+    writer.record_state(&model.problem, 0, 0, 0.0, true);
+    let mut failure = None;
+    for step in &model.steps {
+        let mut tee = Tee(&mut writer, progress);
+        if let Err(e) = model.problem.run_step(step, &mut tee) {
+            failure = Some(e);
+            break;
+        }
+        if let Some(e) = writer.error.take() {
+            return Err(RunError::Output(e));
+        }
+    }
+    let mut files = vec![
+        "curve.csv".to_string(),
+        "convergence.csv".into(),
+        "fields.pvd".into(),
+    ];
+    files.extend(crate::plots::plot_curves(scenario, &writer, out_dir).map_err(RunError::Output)?);
+    files.push("summary.json".into());
+    let summary = RunSummary {
+        version: env!("CARGO_PKG_VERSION"),
+        title: scenario.title.clone(),
+        scenario: scenario.origin.clone(),
+        status: if failure.is_some() {
+            "failed".into()
+        } else {
+            "completed".into()
+        },
+        error: failure.as_ref().map(ToString::to_string),
+        seed: None,
+        size: SystemSize {
+            nodes: scenario.mesh.num_nodes(),
+            elements: scenario.mesh.num_elements(),
+            dofs: model.problem.dof_map().num_dofs(),
+            tangent_nonzeros: model.problem.assembler().pattern().nnz(),
+        },
+        steps: writer.stats.clone(),
+        wall_time_s: start.elapsed().as_secs_f64(),
+        solver_timings: model.problem.timings(),
+        final_values: match writer.rows.last() {
+            Some(row) => writer
+                .header
+                .iter()
+                .cloned()
+                .zip(row.iter().copied())
+                .skip(3)
+                .collect(),
+            None => BTreeMap::new(),
+        },
+        input: scenario.echo.clone(),
+        files,
+    };
+    cellmech_io::write_json_atomic(&out_dir.join("summary.json"), &summary)
+        .map_err(|e| RunError::Output(e.to_string()))?;
+    match failure {
+        Some(error) => Err(RunError::Analysis {
+            error,
+            out_dir: out_dir.to_path_buf(),
+            summary: Box::new(summary),
+        }),
+        None => Ok(summary),
+    }
+}

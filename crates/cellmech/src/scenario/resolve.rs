@@ -1,0 +1,516 @@
+//! Resolution of the raw file: defaults, ranges, units, and references to mesh sets.
+
+use std::ops::Range;
+use std::path::Path;
+
+use cellmech_fem::element::hex8::Hex8Formulation;
+use cellmech_fem::material::NeoHookean;
+use cellmech_fem::mesh::generate::{box_mesh, sphere_mesh, SphereMeshSpec};
+use cellmech_fem::mesh::Mesh;
+use cellmech_fem::solve::{Convergence, StepControl};
+use toml::Spanned;
+
+use super::file::{MaterialSection, MeshSection, NodeSetSection, ScenarioFile, StepSection};
+use super::{
+    CurveSpec, MaterialAssignment, OutputSpec, PlotFormat, Scenario, ScenarioError, StepSpec,
+};
+
+/// Context for messages: the scenario's name and text (to turn spans into lines).
+struct Ctx<'a> {
+    origin: &'a str,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    /// 1-based line of a span's start; `None` for the empty span of a default value.
+    fn line(&self, span: Range<usize>) -> Option<usize> {
+        let start = span.start.min(self.text.len());
+        (span.end > 0).then(|| self.text[..start].matches('\n').count() + 1)
+    }
+
+    fn invalid(
+        &self,
+        span: Option<Range<usize>>,
+        key: &str,
+        message: impl Into<String>,
+    ) -> ScenarioError {
+        ScenarioError::Invalid {
+            path: self.origin.into(),
+            line: span.and_then(|s| self.line(s)),
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Resolves a parsed file into a [`Scenario`].
+pub fn resolve(
+    raw: ScenarioFile,
+    echo: toml::Table,
+    text: &str,
+    origin: &str,
+    base_dir: &Path,
+) -> Result<Scenario, ScenarioError> {
+    let ctx = Ctx { origin, text };
+    let mut mesh = resolve_mesh(&ctx, &raw.mesh, base_dir)?;
+    for section in &raw.node_sets {
+        select_node_set(&ctx, section, &mut mesh)?;
+    }
+    let materials = resolve_materials(&ctx, &raw.materials, &mesh)?;
+    if raw.steps.is_empty() {
+        return Err(ctx.invalid(
+            None,
+            "step",
+            "at least one [[step]] is required; found none",
+        ));
+    }
+    let steps = raw
+        .steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| resolve_step(&ctx, i, s, &mesh))
+        .collect::<Result<Vec<_>, _>>()?;
+    let output = resolve_output(&ctx, &raw.output, &mesh)?;
+    Ok(Scenario {
+        title: raw.title.unwrap_or_else(|| "cellmech analysis".into()),
+        origin: origin.into(),
+        mesh,
+        materials,
+        steps,
+        output,
+        echo,
+    })
+}
+
+fn resolve_mesh(ctx: &Ctx, m: &MeshSection, base_dir: &Path) -> Result<Mesh, ScenarioError> {
+    let source = m.source.get_ref().as_str();
+    let span = Some(m.source.span());
+    let given = |name: &str, present: bool| present.then(|| name.to_string());
+    let box_keys = [
+        given("origin", m.origin.is_some()),
+        given("size", m.size.is_some()),
+        given("divisions", m.divisions.is_some()),
+        given("element_set", m.element_set.is_some()),
+    ];
+    let sphere_keys = [
+        given("radius", m.radius.is_some()),
+        given("inner_radius", m.inner_radius.is_some()),
+        given("core_divisions", m.core_divisions.is_some()),
+        given("shell_layers", m.shell_layers.is_some()),
+        given("outer_layers", m.outer_layers.is_some()),
+    ];
+    let file_keys = [given("path", m.path.is_some())];
+    let reject = |keys: &[Option<String>]| -> Result<(), ScenarioError> {
+        match keys.iter().flatten().next() {
+            Some(k) => Err(ctx.invalid(
+                span.clone(),
+                &format!("mesh.{k}"),
+                format!("`{k}` does not apply to a mesh with source = \"{source}\""),
+            )),
+            None => Ok(()),
+        }
+    };
+    let mesh = match source {
+        "box" => {
+            reject(&sphere_keys)?;
+            reject(&file_keys)?;
+            let size = m.size.ok_or_else(|| {
+                ctx.invalid(
+                    span.clone(),
+                    "mesh.size",
+                    "a box needs `size = [\"10 um\", \"10 um\", \"10 um\"]`",
+                )
+            })?;
+            let divisions = m.divisions.ok_or_else(|| {
+                ctx.invalid(
+                    span.clone(),
+                    "mesh.divisions",
+                    "a box needs `divisions = [nx, ny, nz]`",
+                )
+            })?;
+            let origin = m.origin.map(|o| o.map(|l| l.0)).unwrap_or([0.0; 3]);
+            let name = m.element_set.clone().unwrap_or_else(|| "solid".into());
+            box_mesh(origin, size.map(|l| l.0), divisions, &name)
+                .map_err(|e| ctx.invalid(span.clone(), "mesh", e.to_string()))?
+        }
+        "sphere" => {
+            reject(&box_keys)?;
+            reject(&file_keys)?;
+            let radius = m.radius.ok_or_else(|| {
+                ctx.invalid(
+                    span.clone(),
+                    "mesh.radius",
+                    "a sphere needs `radius = \"16.132 um\"`",
+                )
+            })?;
+            let defaults = SphereMeshSpec::default();
+            let spec = SphereMeshSpec {
+                radius: radius.0,
+                inner_radius: m.inner_radius.map(|r| r.0),
+                core_divisions: m.core_divisions.unwrap_or(defaults.core_divisions),
+                shell_layers: m.shell_layers.unwrap_or(defaults.shell_layers),
+                outer_layers: m.outer_layers.unwrap_or(defaults.outer_layers),
+                ..defaults
+            };
+            sphere_mesh(&spec).map_err(|e| ctx.invalid(span.clone(), "mesh", e.to_string()))?
+        }
+        "file" => {
+            reject(&box_keys)?;
+            reject(&sphere_keys)?;
+            let rel = m.path.as_ref().ok_or_else(|| {
+                ctx.invalid(
+                    span.clone(),
+                    "mesh.path",
+                    "a mesh file needs `path = \"cell.msh\"`",
+                )
+            })?;
+            let path = base_dir.join(rel);
+            crate::mesh_file::read_mesh(&path).map_err(|message| ScenarioError::Mesh {
+                path: ctx.origin.into(),
+                message,
+            })?
+        }
+        other => {
+            return Err(ctx.invalid(
+                span,
+                "mesh.source",
+                format!("expected \"box\", \"sphere\" or \"file\"; found \"{other}\""),
+            ))
+        }
+    };
+    mesh.validate().map_err(|e| ScenarioError::Mesh {
+        path: ctx.origin.into(),
+        message: e.to_string(),
+    })?;
+    Ok(mesh)
+}
+
+fn resolve_materials(
+    ctx: &Ctx,
+    sections: &[MaterialSection],
+    mesh: &Mesh,
+) -> Result<Vec<MaterialAssignment>, ScenarioError> {
+    let mut out = Vec::new();
+    for (i, s) in sections.iter().enumerate() {
+        let key = |k: &str| format!("material[{i}].{k}");
+        let set = s.element_set.get_ref();
+        let span = Some(s.element_set.span());
+        if mesh.block(set).is_none() {
+            let known: Vec<&str> = mesh.blocks.iter().map(|b| b.name.as_str()).collect();
+            return Err(ctx.invalid(
+                span,
+                &key("element_set"),
+                format!("no element set \"{set}\" in the mesh; it has {known:?}"),
+            ));
+        }
+        if out
+            .iter()
+            .any(|m: &MaterialAssignment| &m.element_set == set)
+        {
+            return Err(ctx.invalid(
+                span,
+                &key("element_set"),
+                format!("element set \"{set}\" already has a material"),
+            ));
+        }
+        if s.model.get_ref() != "neo-hookean" {
+            return Err(ctx.invalid(
+                Some(s.model.span()),
+                &key("model"),
+                format!("expected \"neo-hookean\"; found \"{}\"", s.model.get_ref()),
+            ));
+        }
+        let law =
+            material_law(s).map_err(|m| ctx.invalid(span.clone(), &key("shear_modulus"), m))?;
+        let formulation = match s
+            .formulation
+            .as_ref()
+            .map(|f| (f.get_ref().as_str(), f.span()))
+        {
+            None | Some(("mean-dilatation", _)) => Hex8Formulation::MeanDilatation,
+            Some(("displacement", _)) => Hex8Formulation::Displacement,
+            Some((other, sp)) => {
+                return Err(ctx.invalid(
+                    Some(sp),
+                    &key("formulation"),
+                    format!("expected \"mean-dilatation\" or \"displacement\"; found \"{other}\""),
+                ))
+            }
+        };
+        out.push(MaterialAssignment {
+            element_set: set.clone(),
+            law,
+            formulation,
+        });
+    }
+    for block in &mesh.blocks {
+        if !out.iter().any(|m| m.element_set == block.name) {
+            return Err(ctx.invalid(
+                None,
+                "material",
+                format!("element set \"{}\" has no [[material]]", block.name),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// G and K from any consistent pair of (G, E, K, ν).
+fn material_law(s: &MaterialSection) -> Result<NeoHookean, String> {
+    let nu = s.poisson_ratio;
+    if let Some(nu) = nu {
+        if !(nu > -1.0 && nu < 0.5) {
+            return Err(format!("poisson_ratio must lie in (-1, 0.5); found {nu}"));
+        }
+    }
+    let g =
+        match (s.shear_modulus, s.youngs_modulus, nu) {
+            (Some(g), None, _) => g.0,
+            (None, Some(e), Some(nu)) => e.0 / (2.0 * (1.0 + nu)),
+            (None, Some(_), None) => return Err("youngs_modulus needs poisson_ratio".into()),
+            (Some(_), Some(_), _) => {
+                return Err("give shear_modulus or youngs_modulus, not both".into())
+            }
+            (None, None, _) => return Err(
+                "a neo-Hookean material needs shear_modulus (or youngs_modulus with poisson_ratio)"
+                    .into(),
+            ),
+        };
+    let k = match (s.bulk_modulus, nu) {
+        (Some(k), None) => k.0,
+        (None, Some(nu)) => 2.0 * g * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu)),
+        (Some(_), Some(_)) if s.youngs_modulus.is_none() => {
+            return Err("give bulk_modulus or poisson_ratio, not both".into())
+        }
+        (Some(k), Some(_)) => k.0,
+        (None, None) => {
+            return Err("a neo-Hookean material needs bulk_modulus or poisson_ratio".into())
+        }
+    };
+    if !(g > 0.0 && k > 0.0) {
+        return Err(format!(
+            "moduli must be positive; found G = {g} kPa, K = {k} kPa"
+        ));
+    }
+    Ok(NeoHookean {
+        shear_modulus: g,
+        bulk_modulus: k,
+    })
+}
+
+fn component(ctx: &Ctx, c: &Spanned<String>, key: &str) -> Result<usize, ScenarioError> {
+    match c.get_ref().as_str() {
+        "x" => Ok(0),
+        "y" => Ok(1),
+        "z" => Ok(2),
+        other => Err(ctx.invalid(
+            Some(c.span()),
+            key,
+            format!("expected \"x\", \"y\" or \"z\"; found \"{other}\""),
+        )),
+    }
+}
+
+fn node_set(
+    ctx: &Ctx,
+    mesh: &Mesh,
+    set: &Spanned<String>,
+    key: &str,
+) -> Result<String, ScenarioError> {
+    let name = set.get_ref();
+    match mesh.node_sets.get(name) {
+        Some(nodes) if !nodes.is_empty() => Ok(name.clone()),
+        Some(_) => Err(ctx.invalid(
+            Some(set.span()),
+            key,
+            format!("node set \"{name}\" is empty"),
+        )),
+        None => {
+            let known: Vec<&str> = mesh.node_sets.keys().map(String::as_str).collect();
+            Err(ctx.invalid(
+                Some(set.span()),
+                key,
+                format!("no node set \"{name}\" in the mesh; it has {known:?}"),
+            ))
+        }
+    }
+}
+
+fn resolve_step(
+    ctx: &Ctx,
+    i: usize,
+    s: &StepSection,
+    mesh: &Mesh,
+) -> Result<StepSpec, ScenarioError> {
+    let key = |k: &str| format!("step[{i}].{k}");
+    let defaults = StepControl::default();
+    let conv_defaults = Convergence::default();
+    let control = StepControl {
+        initial_increment: s.initial_increment.unwrap_or(defaults.initial_increment),
+        min_increment: s.min_increment.unwrap_or(defaults.min_increment),
+        max_increment: s.max_increment.unwrap_or(
+            defaults
+                .max_increment
+                .max(s.initial_increment.unwrap_or(0.0)),
+        ),
+        convergence: Convergence {
+            max_iterations: s.max_iterations.unwrap_or(conv_defaults.max_iterations),
+            residual_tolerance: s
+                .residual_tolerance
+                .unwrap_or(conv_defaults.residual_tolerance),
+            energy_tolerance: s.energy_tolerance.unwrap_or(conv_defaults.energy_tolerance),
+            ..conv_defaults
+        },
+        ..defaults
+    };
+    let c = &control;
+    if !(c.min_increment > 0.0
+        && c.min_increment <= c.initial_increment
+        && c.initial_increment <= c.max_increment
+        && c.max_increment <= 1.0)
+    {
+        return Err(ctx.invalid(
+            None,
+            &key("initial_increment"),
+            format!(
+            "need 0 < min_increment <= initial_increment <= max_increment <= 1; found {}, {}, {}",
+            c.min_increment, c.initial_increment, c.max_increment),
+        ));
+    }
+    let tol = &c.convergence;
+    if !(tol.residual_tolerance > 0.0
+        && tol.residual_tolerance < 1.0
+        && tol.energy_tolerance > 0.0
+        && tol.energy_tolerance < 1.0
+        && tol.max_iterations > 0)
+    {
+        return Err(ctx.invalid(
+            None,
+            &key("residual_tolerance"),
+            "tolerances must lie in (0, 1) and max_iterations be >= 1",
+        ));
+    }
+    let mut fixes = Vec::new();
+    for (j, f) in s.fix.iter().enumerate() {
+        let set = node_set(ctx, mesh, &f.node_set, &key(&format!("fix[{j}].node_set")))?;
+        let mut comps = [f.components.is_none(); 3];
+        for c in f.components.iter().flatten() {
+            comps[component(ctx, c, &key(&format!("fix[{j}].components")))?] = true;
+        }
+        fixes.push((set, comps));
+    }
+    let mut displacements = Vec::new();
+    for (j, d) in s.displace.iter().enumerate() {
+        let set = node_set(
+            ctx,
+            mesh,
+            &d.node_set,
+            &key(&format!("displace[{j}].node_set")),
+        )?;
+        for (c, v) in [d.x, d.y, d.z].iter().enumerate() {
+            if let Some(v) = v {
+                displacements.push((set.clone(), c, v.0));
+            }
+        }
+    }
+    let mut forces = Vec::new();
+    for (j, f) in s.force.iter().enumerate() {
+        let set = node_set(
+            ctx,
+            mesh,
+            &f.node_set,
+            &key(&format!("force[{j}].node_set")),
+        )?;
+        for (c, v) in [f.x, f.y, f.z].iter().enumerate() {
+            if let Some(v) = v {
+                forces.push((set.clone(), c, v.0));
+            }
+        }
+    }
+    Ok(StepSpec {
+        name: s.name.clone().unwrap_or_else(|| format!("step-{}", i + 1)),
+        control,
+        fixes,
+        displacements,
+        forces,
+    })
+}
+
+fn resolve_output(
+    ctx: &Ctx,
+    o: &super::file::OutputSection,
+    mesh: &Mesh,
+) -> Result<OutputSpec, ScenarioError> {
+    let mut curves = Vec::new();
+    for (i, c) in o.curves.iter().enumerate() {
+        let set = node_set(
+            ctx,
+            mesh,
+            &c.node_set,
+            &format!("output.curve[{i}].node_set"),
+        )?;
+        let component = component(ctx, &c.component, &format!("output.curve[{i}].component"))?;
+        curves.push(CurveSpec {
+            name: c.name.clone().unwrap_or_else(|| set.clone()),
+            node_set: set,
+            component,
+            sign: if c.reverse_sign { -1.0 } else { 1.0 },
+        });
+    }
+    let plot_format = match o
+        .plot_format
+        .as_ref()
+        .map(|f| (f.get_ref().as_str(), f.span()))
+    {
+        None | Some(("png", _)) => PlotFormat::Png,
+        Some(("svg", _)) => PlotFormat::Svg,
+        Some((other, sp)) => {
+            return Err(ctx.invalid(
+                Some(sp),
+                "output.plot_format",
+                format!("expected \"png\" or \"svg\"; found \"{other}\""),
+            ))
+        }
+    };
+    Ok(OutputSpec {
+        curves,
+        vtk_every: o.vtk_every.unwrap_or(1),
+        plot_format,
+    })
+}
+
+fn select_node_set(ctx: &Ctx, s: &NodeSetSection, mesh: &mut Mesh) -> Result<(), ScenarioError> {
+    let name = s.name.get_ref();
+    if mesh.node_sets.contains_key(name) {
+        return Err(ctx.invalid(
+            Some(s.name.span()),
+            "node_set.name",
+            format!("a node set \"{name}\" already exists"),
+        ));
+    }
+    let candidates: Vec<usize> = match &s.from {
+        Some(from) => mesh.node_sets.get(from.get_ref()).cloned().ok_or_else(|| {
+            ctx.invalid(
+                Some(from.span()),
+                "node_set.from",
+                format!("no node set \"{}\" in the mesh", from.get_ref()),
+            )
+        })?,
+        None => (0..mesh.num_nodes()).collect(),
+    };
+    let lo = [s.x_min, s.y_min, s.z_min].map(|b| b.map_or(f64::NEG_INFINITY, |l| l.0));
+    let hi = [s.x_max, s.y_max, s.z_max].map(|b| b.map_or(f64::INFINITY, |l| l.0));
+    let selected: Vec<usize> = candidates
+        .into_iter()
+        .filter(|&n| (0..3).all(|k| mesh.nodes[n][k] >= lo[k] && mesh.nodes[n][k] <= hi[k]))
+        .collect();
+    if selected.is_empty() {
+        return Err(ctx.invalid(
+            Some(s.name.span()),
+            "node_set",
+            format!("node set \"{name}\" selects no node: check its bounds"),
+        ));
+    }
+    mesh.insert_node_set(name.clone(), selected);
+    Ok(())
+}
