@@ -1,6 +1,9 @@
 //! A set of corotational beam elements as a [`Term`], with per-element results.
 
-use super::{beam_deformation, beam_evaluate, BeamError, BeamReference, BeamSection, BEAM_DOFS};
+use super::{
+    beam_deformation, beam_evaluate_with, BeamError, BeamReference, BeamSection, LocalStrain,
+    BEAM_DOFS,
+};
 use crate::dof::DofMap;
 use crate::element::KernelError;
 use crate::mesh::ElementKind;
@@ -25,6 +28,8 @@ pub struct BeamSet {
     pub reference: Vec<BeamReference>,
     /// Cross-section of all elements.
     pub section: BeamSection,
+    /// Axial strain measure of the local element.
+    pub local_strain: LocalStrain,
     /// Whether the set contributes to the problem.
     pub enabled: bool,
 }
@@ -32,9 +37,9 @@ pub struct BeamSet {
 /// Per-element results at a state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BeamElementResult {
-    /// Axial force N = EA ū/L (nN; > 0 tension).
+    /// Axial force N = EA ε (nN; > 0 tension).
     pub axial_force: f64,
-    /// Axial strain ū/L.
+    /// Axial strain ε (ū/L, plus the bowing term for [`LocalStrain::ShallowArch`]).
     pub axial_strain: f64,
     /// Torque T = GJ (θ̄_b1 − θ̄ₐ1)/L (nN·µm).
     pub torque: f64,
@@ -99,6 +104,7 @@ impl BeamSet {
             nodes: pairs.to_vec(),
             reference,
             section,
+            local_strain: LocalStrain::default(),
             enabled: true,
         })
     }
@@ -188,9 +194,10 @@ impl BeamSet {
                     let m3 = ei3 / l * (4.0 * x[2] + 2.0 * y[2]);
                     m2.hypot(m3)
                 };
+                let strain = self.local_strain.strain(l, &d);
                 Ok(BeamElementResult {
-                    axial_force: s.axial_stiffness() * d.extension / l,
-                    axial_strain: d.extension / l,
+                    axial_force: s.axial_stiffness() * strain,
+                    axial_strain: strain,
                     torque: s.shear_modulus * s.torsion_j * (tb[0] - ta[0]) / l,
                     bending_moment: [moment(&ta, &tb), moment(&tb, &ta)],
                 })
@@ -264,7 +271,14 @@ impl Term for BeamSet {
             return Ok(0.0);
         }
         let u: [f64; BEAM_DOFS] = std::array::from_fn(|i| u_e.get(i).copied().unwrap_or(0.0));
-        beam_evaluate(&self.section, &self.reference[e], &u, residual, tangent)
+        beam_evaluate_with(
+            self.local_strain,
+            &self.section,
+            &self.reference[e],
+            &u,
+            residual,
+            tangent,
+        )
     }
 
     /// Line2 cells with `axial_force_nN`, `axial_stress_kPa`, `axial_strain` and
