@@ -13,6 +13,7 @@ pub mod dof;
 pub mod element;
 pub mod linsolve;
 pub mod material;
+pub mod math;
 pub mod mesh;
 pub mod solve;
 pub mod term;

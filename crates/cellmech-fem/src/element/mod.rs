@@ -1,6 +1,7 @@
 //! Element kernels: small pure functions of element state that return energy, residual and
 //! tangent. Kernels never allocate and never see global data.
 
+pub mod beam;
 pub mod hex8;
 pub mod spring;
 

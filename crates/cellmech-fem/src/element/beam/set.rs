@@ -1,0 +1,307 @@
+//! A set of corotational beam elements as a [`Term`], with per-element results.
+
+use super::{
+    beam_deformation, beam_evaluate_with, BeamError, BeamReference, BeamSection, LocalStrain,
+    BEAM_DOFS,
+};
+use crate::dof::DofMap;
+use crate::element::KernelError;
+use crate::mesh::ElementKind;
+use crate::term::{CellField, Term, TermOutput};
+
+/// A set of two-node corotational beams sharing one section (e.g. all microtubules).
+///
+/// Every node of the set must carry 6 DOFs in the [`DofMap`] (3 translations, then the 3
+/// components of the total rotation vector); see [`BeamSet::mark_rotational_nodes`] and
+/// [`BeamSet::check_dof_map`]. When `enabled` is false the set contributes nothing (zero
+/// energy, residual and tangent), so the rotations of nodes only beams stiffen must then
+/// be held by the caller.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BeamSet {
+    /// Name of the set (messages, outputs).
+    pub name: String,
+    /// Filament family, e.g. `microtubule`.
+    pub family: String,
+    /// Node pairs (a, b) of the elements.
+    pub nodes: Vec<[usize; 2]>,
+    /// Reference geometry of each element.
+    pub reference: Vec<BeamReference>,
+    /// Cross-section of all elements.
+    pub section: BeamSection,
+    /// Axial strain measure of the local element.
+    pub local_strain: LocalStrain,
+    /// Whether the set contributes to the problem.
+    pub enabled: bool,
+}
+
+/// Per-element results at a state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BeamElementResult {
+    /// Axial force N = EA ε (nN; > 0 tension).
+    pub axial_force: f64,
+    /// Axial strain ε (ū/L, plus the bowing term for [`LocalStrain::ShallowArch`]).
+    pub axial_strain: f64,
+    /// Torque T = GJ (θ̄_b1 − θ̄ₐ1)/L (nN·µm).
+    pub torque: f64,
+    /// Resultant bending moments |(M₂, M₃)| at ends a and b, `M = EI/L (4θ̄ₐ + 2θ̄_b)` etc.
+    /// (nN·µm).
+    pub bending_moment: [f64; 2],
+}
+
+/// Summary of the axial forces of a set.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ForceStatistics {
+    /// Number of elements.
+    pub count: usize,
+    /// Smallest axial force (nN).
+    pub min: f64,
+    /// Largest axial force (nN).
+    pub max: f64,
+    /// Mean axial force (nN).
+    pub mean: f64,
+    /// Elements with N > 0.
+    pub tension: usize,
+    /// Elements with N < 0.
+    pub compression: usize,
+}
+
+impl BeamSet {
+    /// A set from node pairs and reference coordinates of all nodes; element references
+    /// use `up` (or the automatic choice of [`BeamReference::new`]).
+    pub fn from_coordinates(
+        name: impl Into<String>,
+        family: impl Into<String>,
+        coordinates: &[[f64; 3]],
+        pairs: &[[usize; 2]],
+        up: Option<[f64; 3]>,
+        section: BeamSection,
+    ) -> Result<Self, BeamError> {
+        let name = name.into();
+        let mut reference = Vec::with_capacity(pairs.len());
+        for (e, pair) in pairs.iter().enumerate() {
+            for &node in pair {
+                if node >= coordinates.len() {
+                    return Err(BeamError::NodeOutOfRange {
+                        set: name.clone(),
+                        element: e,
+                        node,
+                        num_nodes: coordinates.len(),
+                    });
+                }
+            }
+            let r = BeamReference::new(coordinates[pair[0]], coordinates[pair[1]], up).map_err(
+                |source| BeamError::Element {
+                    set: name.clone(),
+                    element: e,
+                    source: Box::new(source),
+                },
+            )?;
+            reference.push(r);
+        }
+        Ok(BeamSet {
+            name,
+            family: family.into(),
+            nodes: pairs.to_vec(),
+            reference,
+            section,
+            local_strain: LocalStrain::default(),
+            enabled: true,
+        })
+    }
+
+    /// Sets `dofs_per_node[n] = 6` for every node of the set (input for
+    /// [`DofMap::with_counts`]).
+    pub fn mark_rotational_nodes(&self, dofs_per_node: &mut [usize]) -> Result<(), BeamError> {
+        for (e, pair) in self.nodes.iter().enumerate() {
+            for &node in pair {
+                let num_nodes = dofs_per_node.len();
+                let slot = dofs_per_node
+                    .get_mut(node)
+                    .ok_or(BeamError::NodeOutOfRange {
+                        set: self.name.clone(),
+                        element: e,
+                        node,
+                        num_nodes,
+                    })?;
+                *slot = 6;
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks that the per-element lists agree and every beam node carries 6 DOFs.
+    pub fn check_dof_map(&self, dof_map: &DofMap) -> Result<(), BeamError> {
+        if self.nodes.len() != self.reference.len() {
+            return Err(BeamError::LengthMismatch {
+                set: self.name.clone(),
+                pairs: self.nodes.len(),
+                references: self.reference.len(),
+            });
+        }
+        for (e, pair) in self.nodes.iter().enumerate() {
+            for &node in pair {
+                if node >= dof_map.num_nodes() {
+                    return Err(BeamError::NodeOutOfRange {
+                        set: self.name.clone(),
+                        element: e,
+                        node,
+                        num_nodes: dof_map.num_nodes(),
+                    });
+                }
+                if dof_map.count(node) < 6 {
+                    return Err(BeamError::NodeWithoutRotations {
+                        set: self.name.clone(),
+                        node,
+                        count: dof_map.count(node),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn gather(&self, e: usize, u: &[f64], dof_map: &DofMap) -> [f64; BEAM_DOFS] {
+        let mut dofs = [0usize; BEAM_DOFS];
+        self.element_dofs(e, dof_map, &mut dofs);
+        dofs.map(|d| u[d])
+    }
+
+    /// Axial force, strain, torque and end moments of every element at DOF values `u`
+    /// (zeros when the set is disabled). Requires [`BeamSet::check_dof_map`] to pass.
+    pub fn element_results(
+        &self,
+        u: &[f64],
+        dof_map: &DofMap,
+    ) -> Result<Vec<BeamElementResult>, KernelError> {
+        let s = &self.section;
+        let (ei2, ei3) = s.bending_stiffness();
+        (0..self.nodes.len())
+            .map(|e| {
+                if !self.enabled {
+                    return Ok(BeamElementResult {
+                        axial_force: 0.0,
+                        axial_strain: 0.0,
+                        torque: 0.0,
+                        bending_moment: [0.0; 2],
+                    });
+                }
+                let r = &self.reference[e];
+                let d = beam_deformation(r, &self.gather(e, u, dof_map))?;
+                let l = r.length;
+                let (ta, tb) = (d.theta_a, d.theta_b);
+                let moment = |x: &[f64; 3], y: &[f64; 3]| {
+                    let m2 = ei2 / l * (4.0 * x[1] + 2.0 * y[1]);
+                    let m3 = ei3 / l * (4.0 * x[2] + 2.0 * y[2]);
+                    m2.hypot(m3)
+                };
+                let strain = self.local_strain.strain(l, &d);
+                Ok(BeamElementResult {
+                    axial_force: s.axial_stiffness() * strain,
+                    axial_strain: strain,
+                    torque: s.shear_modulus * s.torsion_j * (tb[0] - ta[0]) / l,
+                    bending_moment: [moment(&ta, &tb), moment(&tb, &ta)],
+                })
+            })
+            .collect()
+    }
+
+    /// Count, extremes and mean of the axial forces, and how many elements are in tension
+    /// (N > 0) and in compression (N < 0). An empty set gives zeros.
+    pub fn force_statistics(
+        &self,
+        u: &[f64],
+        dof_map: &DofMap,
+    ) -> Result<ForceStatistics, KernelError> {
+        let results = self.element_results(u, dof_map)?;
+        let forces = results.iter().map(|r| r.axial_force);
+        let count = results.len();
+        if count == 0 {
+            return Ok(ForceStatistics {
+                count,
+                min: 0.0,
+                max: 0.0,
+                mean: 0.0,
+                tension: 0,
+                compression: 0,
+            });
+        }
+        Ok(ForceStatistics {
+            count,
+            min: forces.clone().fold(f64::INFINITY, f64::min),
+            max: forces.clone().fold(f64::NEG_INFINITY, f64::max),
+            mean: forces.clone().sum::<f64>() / count as f64,
+            tension: forces.clone().filter(|&n| n > 0.0).count(),
+            compression: forces.filter(|&n| n < 0.0).count(),
+        })
+    }
+}
+
+impl Term for BeamSet {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn num_elements(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// `[uₐ(3), θₐ(3), u_b(3), θ_b(3)]`: components 0..6 of both nodes (which must carry 6
+    /// DOFs, see [`BeamSet::check_dof_map`]).
+    fn element_dofs(&self, e: usize, dof_map: &DofMap, dofs: &mut [usize]) -> usize {
+        for (a, &node) in self.nodes[e].iter().enumerate() {
+            for c in 0..6 {
+                dofs[6 * a + c] = dof_map.dof(node, c);
+            }
+        }
+        BEAM_DOFS
+    }
+
+    fn evaluate(
+        &self,
+        e: usize,
+        u_e: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+    ) -> Result<f64, KernelError> {
+        if !self.enabled {
+            residual.iter_mut().for_each(|r| *r = 0.0);
+            if let Some(t) = tangent {
+                t.iter_mut().for_each(|k| *k = 0.0);
+            }
+            return Ok(0.0);
+        }
+        let u: [f64; BEAM_DOFS] = std::array::from_fn(|i| u_e.get(i).copied().unwrap_or(0.0));
+        beam_evaluate_with(
+            self.local_strain,
+            &self.section,
+            &self.reference[e],
+            &u,
+            residual,
+            tangent,
+        )
+    }
+
+    /// Line2 cells with `axial_force_nN`, `axial_stress_kPa`, `axial_strain` and
+    /// `bending_moment_nN_um` (the larger of the two ends' resultant moments).
+    fn outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
+        let results = self.element_results(u, dof_map)?;
+        let field = |name: &str, f: &dyn Fn(&BeamElementResult) -> f64| CellField {
+            name: name.to_string(),
+            components: 1,
+            values: results.iter().map(f).collect(),
+        };
+        let area = self.section.area;
+        Ok(Some(TermOutput {
+            kind: ElementKind::Line2,
+            connectivity: self.nodes.iter().flatten().copied().collect(),
+            fields: vec![
+                field("axial_force_nN", &|r| r.axial_force),
+                field("axial_stress_kPa", &|r| r.axial_force / area),
+                field("axial_strain", &|r| r.axial_strain),
+                field("bending_moment_nN_um", &|r| {
+                    r.bending_moment[0].max(r.bending_moment[1])
+                }),
+            ],
+        }))
+    }
+}
