@@ -2,6 +2,8 @@
 //! tangent. Kernels never allocate and never see global data.
 
 pub mod hex8;
+pub mod membrane;
+pub mod pressure;
 pub mod spring;
 
 /// A kernel could not evaluate the element (the solver reacts by cutting the step).
