@@ -11,7 +11,7 @@ use std::collections::HashMap;
 
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::element::membrane::MembraneSet;
-use cellmech_fem::element::pressure::{SurfaceVolume, VolumeControl};
+use cellmech_fem::element::pressure::{PressureLoad, SurfaceVolume, VolumeControl};
 use cellmech_fem::linsolve::{
     FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern,
 };
@@ -431,4 +431,55 @@ fn membrane_balloon_inflation_follows_analytic_curve_through_limit_point() {
         p_peak / scale,
         p_exact / scale
     );
+}
+
+#[test]
+fn membrane_balloon_under_prescribed_pressure_reaches_analytic_stretch() {
+    // GOAL: pressure control below the limit point, pressure changed between steps through
+    // the term's handle (each step applies its pressure in full).
+    // MESH/BCS as the volume-controlled balloon; p = 0.3, 0.6, 0.9 of the analytic maximum.
+    let (m, r0, h, mu) = (8, 5.0, 0.01, 1000.0);
+    let (nodes, conn, on_plane) = cubed_sphere_octant(m, r0);
+    let membrane =
+        MembraneSet::new("balloon", ElementKind::Quad4, conn.clone(), &nodes, mu, h).unwrap();
+    let surface = SurfaceVolume::new("balloon", ElementKind::Quad4, conn, &nodes).unwrap();
+    let v0 = surface.reference_volume();
+    let load = PressureLoad::new(surface.clone(), 0.0);
+    let handle = load.pressure_handle();
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(membrane), Box::new(load)];
+    let map = DofMap::translational(nodes.len());
+    let mut problem = Problem::new(map, terms, Box::new(DenseLu::default())).unwrap();
+    let scale = mu * h / r0;
+    let analytic = |l: f64| 2.0 * scale * (1.0 / l - l.powi(-7));
+    let l_peak = 7f64.powf(1.0 / 6.0);
+    for fraction in [0.3, 0.6, 0.9] {
+        let p = fraction * analytic(l_peak);
+        handle.set(p);
+        let mut step = Step::new(format!("p = {fraction} p_max"));
+        // The pressure is not ramped within a step, so the step is one increment: later
+        // increments would start in equilibrium, where the relative energy criterion
+        // |δ·R|/|δ₀·R₀| compares round-off with round-off and never converges.
+        step.control.initial_increment = 1.0;
+        step.control.max_increment = 1.0;
+        for (n, planes) in on_plane.iter().enumerate() {
+            for c in (0..3).filter(|&c| planes[c]) {
+                step.prescribed.push((3 * n + c, Motion::Hold));
+            }
+        }
+        problem.run_step(&step, &mut NullObserver).unwrap();
+        // Analytic stretch on the stable branch 1 < λ < 7^(1/6), by bisection.
+        let (mut lo, mut hi) = (1.0, l_peak);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if analytic(mid) < p {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let lambda = (surface.volume(problem.u(), problem.dof_map()) / v0).cbrt();
+        let error = ((lambda - lo) / lo).abs();
+        eprintln!("pressure control: p = {fraction} p_max, λ = {lambda:.5} (exact {lo:.5}), rel. error {error:.2e}");
+        assert!(error < 0.005, "λ = {lambda} vs analytic {lo}");
+    }
 }

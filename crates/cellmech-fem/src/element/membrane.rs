@@ -100,11 +100,11 @@ fn reference_point<const N: usize>(
     let area = norm(&normal);
     let scale = norm(&gx) * norm(&ge);
     let degenerate = KernelError::DegenerateReference { qp, det_j0: area };
-    if !(area > 1e-12 * scale) || !area.is_finite() {
+    if area.is_nan() || area <= 1e-12 * scale || !area.is_finite() {
         return Err(degenerate);
     }
     let alignment = dot(&normal, reference_normal);
-    if !(alignment > 0.0) {
+    if alignment.is_nan() || alignment <= 0.0 {
         return Err(KernelError::DegenerateReference {
             qp,
             det_j0: alignment / norm(reference_normal).max(f64::MIN_POSITIVE),
@@ -418,7 +418,7 @@ impl MembraneSet {
             }
         }
         let per = kind.nodes_per_element();
-        if connectivity.len() % per != 0 {
+        if !connectivity.len().is_multiple_of(per) {
             return Err(MembraneError::RaggedConnectivity {
                 set,
                 len: connectivity.len(),

@@ -71,7 +71,7 @@ fn volume_coefficients(kind: ElementKind) -> Vec<f64> {
     let n = kind.nodes_per_element();
     let mut c = vec![0.0; n * n * n];
     if kind == ElementKind::Tri3 {
-        c[1 * 3 + 2] = 1.0 / 6.0; // (a, b, c) = (0, 1, 2)
+        c[3 + 2] = 1.0 / 6.0; // (a, b, c) = (0, 1, 2): index (a·3 + b)·3 + c
     } else {
         let g = 1.0 / 3f64.sqrt();
         let corners = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
@@ -147,7 +147,7 @@ impl SurfaceVolume {
             });
         }
         let per = kind.nodes_per_element();
-        if connectivity.len() % per != 0 {
+        if !connectivity.len().is_multiple_of(per) {
             return Err(PressureError::RaggedConnectivity {
                 set,
                 len: connectivity.len(),
