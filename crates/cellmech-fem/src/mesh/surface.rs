@@ -245,6 +245,18 @@ mod tests {
         // Selecting one block keeps the interface as its boundary.
         let left = boundary_quads(&mesh, Some(&["left"])).unwrap();
         assert_eq!(left.len(), 6);
+        // The outward faces enclose the solid: V = 1/3 ∮ x·n dA = 2 (and 1 for one cube).
+        for (faces, volume) in [(&faces, 2.0), (&left, 1.0)] {
+            let block = quad_block("skin", faces);
+            let surface = crate::element::pressure::SurfaceVolume::new(
+                "skin",
+                block.kind,
+                block.connectivity,
+                &mesh.nodes,
+            )
+            .unwrap();
+            assert!((surface.reference_volume() - volume).abs() < 1e-14);
+        }
         assert!(matches!(
             boundary_quads(&mesh, Some(&["nucleus"])),
             Err(SurfaceError::UnknownBlock { .. })
