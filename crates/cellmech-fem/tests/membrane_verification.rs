@@ -396,6 +396,9 @@ fn membrane_balloon_inflation_follows_analytic_curve_through_limit_point() {
         curve: Vec::new(),
     };
     problem.run_step(&step, &mut rec).unwrap();
+    // The multiplier is the pressure, and so is the reaction on the volume DOF.
+    let p_end = problem.u()[p_dof];
+    assert!((problem.reaction(dv_dof) - p_end).abs() < 1e-12 * p_end.abs());
 
     let scale = mu * h / r0;
     let analytic = |l: f64| 2.0 * scale * (1.0 / l - l.powi(-7));
