@@ -3,6 +3,8 @@
 
 pub mod beam;
 pub mod hex8;
+pub mod membrane;
+pub mod pressure;
 pub mod spring;
 
 /// A kernel could not evaluate the element (the solver reacts by cutting the step).
