@@ -47,6 +47,9 @@ struct TermLayout {
 pub struct AssemblyOutput<'a> {
     /// Full residual (internal forces) for all DOFs; overwritten.
     pub residual: &'a mut [f64],
+    /// Sum of the absolute element contributions to each residual entry (the size of the
+    /// internal forces that balance there, e.g. prestress); overwritten when `Some`.
+    pub magnitude: Option<&'a mut [f64]>,
     /// Tangent values in the pattern's order; overwritten when `Some`.
     pub tangent: Option<&'a mut [f64]>,
     /// `K_fp · du_p` for the free rows (prescribed-motion predictor): `(du_p, out)`, where
@@ -138,6 +141,10 @@ impl Assembler {
         debug_assert_eq!(terms.len(), self.layouts.len());
         out.residual.fill(0.0);
         let residual = SharedMut(out.residual.as_mut_ptr());
+        let magnitude = out.magnitude.map(|m| {
+            m.fill(0.0);
+            SharedMut(m.as_mut_ptr())
+        });
         let tangent = out.tangent.map(|t| {
             t.fill(0.0);
             SharedMut(t.as_mut_ptr())
@@ -151,6 +158,7 @@ impl Assembler {
             for color in &layout.colors {
                 let sink = Sink {
                     residual,
+                    magnitude,
                     tangent,
                     predictor,
                     prescribed,
@@ -176,6 +184,7 @@ impl Assembler {
 /// Where one element's results go.
 struct Sink<'a> {
     residual: SharedMut,
+    magnitude: Option<SharedMut>,
     tangent: Option<SharedMut>,
     predictor: Option<(&'a [f64], SharedMut)>,
     prescribed: &'a [bool],
@@ -213,6 +222,11 @@ fn assemble_element(
     // touches these residual entries or the pattern entries coupling these DOFs.
     for (a, &d) in dofs.iter().enumerate() {
         unsafe { sink.residual.add(d as usize, r_e[a]) };
+    }
+    if let Some(m) = sink.magnitude {
+        for (a, &d) in dofs.iter().enumerate() {
+            unsafe { m.add(d as usize, r_e[a].abs()) };
+        }
     }
     if let Some(t) = sink.tangent {
         let map = &layout.map[layout.map_offsets[e]..];

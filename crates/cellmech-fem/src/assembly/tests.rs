@@ -47,6 +47,7 @@ fn assembled_tangent_matches_finite_differences_of_assembled_residual() {
         &free,
         AssemblyOutput {
             residual: &mut r,
+            magnitude: None,
             tangent: Some(&mut values),
             predictor: None,
         },
@@ -66,6 +67,7 @@ fn assembled_tangent_matches_finite_differences_of_assembled_residual() {
                 &free,
                 AssemblyOutput {
                     residual: &mut rp,
+                    magnitude: None,
                     tangent: None,
                     predictor: None,
                 },
@@ -78,6 +80,7 @@ fn assembled_tangent_matches_finite_differences_of_assembled_residual() {
                 &free,
                 AssemblyOutput {
                     residual: &mut rm,
+                    magnitude: None,
                     tangent: None,
                     predictor: None,
                 },
@@ -113,6 +116,7 @@ fn prescribed_dofs_get_unit_diagonal_and_their_coupling_goes_to_the_predictor() 
         &mask,
         AssemblyOutput {
             residual: &mut r,
+            magnitude: None,
             tangent: Some(&mut values),
             predictor: Some((&du, &mut pred)),
         },
@@ -127,6 +131,7 @@ fn prescribed_dofs_get_unit_diagonal_and_their_coupling_goes_to_the_predictor() 
         &none,
         AssemblyOutput {
             residual: &mut r,
+            magnitude: None,
             tangent: Some(&mut full_values),
             predictor: None,
         },

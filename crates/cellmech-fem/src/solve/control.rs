@@ -7,7 +7,9 @@ use serde::Serialize;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Convergence {
     /// Residual criterion: ‖R_free‖ ≤ `residual_tolerance` · force scale, where the force
-    /// scale is the largest of ‖f_ext‖, ‖reactions‖ and the first residual of the increment.
+    /// scale is the largest of ‖f_ext‖, ‖reactions‖, the first residual of the increment and
+    /// the size of the internal forces that balance at the free DOFs (Σ|element forces|,
+    /// which is what a prestressed structure carries with no external load).
     pub residual_tolerance: f64,
     /// Energy criterion: |δuᵢ·Rᵢ| ≤ `energy_tolerance` · |δu₀·R₀|.
     pub energy_tolerance: f64,

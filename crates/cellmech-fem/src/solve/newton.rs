@@ -32,6 +32,9 @@ pub struct IterationReport {
     pub correction_norm: f64,
 }
 
+/// A residual this small relative to the force scale is round-off: converged.
+const ROUND_OFF: f64 = 1e-13;
+
 fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
     v.iter()
         .zip(mask)
@@ -114,7 +117,10 @@ impl Problem {
             if !residual_ratio.is_finite() {
                 return Err(FailureReason::NotFinite { iteration });
             }
+            // At round-off level the energy ratio carries no information (e.g. a step that
+            // starts in equilibrium), so the residual alone decides there.
             let converged = scale == 0.0
+                || residual_ratio <= ROUND_OFF
                 || (residual_ratio <= conv.residual_tolerance
                     && energy_ratio <= conv.energy_tolerance);
             if converged {
@@ -173,6 +179,7 @@ impl Problem {
         let mut out_of_balance = 0.0;
         let mut reactions = 0.0;
         let mut work = 0.0;
+        let mut internal = 0.0;
         for d in 0..n {
             let r = self.f_ext[d] - self.residual[d];
             if self.prescribed[d] {
@@ -180,9 +187,10 @@ impl Problem {
             } else {
                 out_of_balance += r * r;
                 work += step_length * self.work.delta[d] * r;
+                internal += self.work.magnitude[d] * self.work.magnitude[d];
             }
         }
-        let scale = scale_floor.max(reactions.sqrt());
+        let scale = scale_floor.max(reactions.sqrt()).max(internal.sqrt());
         *scale_floor = scale;
         let residual_ratio = if scale > 0.0 {
             out_of_balance.sqrt() / scale
@@ -225,6 +233,7 @@ impl Problem {
             &self.prescribed,
             AssemblyOutput {
                 residual: &mut self.residual,
+                magnitude: Some(&mut self.work.magnitude),
                 tangent: Some(&mut self.work.values),
                 predictor,
             },
@@ -246,6 +255,7 @@ impl Problem {
             &self.prescribed,
             AssemblyOutput {
                 residual: &mut self.work.residual_trial,
+                magnitude: None,
                 tangent: None,
                 predictor: None,
             },

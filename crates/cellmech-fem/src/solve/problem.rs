@@ -19,6 +19,7 @@ pub(super) struct Work {
     pub trial: Vec<f64>,
     pub du_prescribed: Vec<f64>,
     pub residual_trial: Vec<f64>,
+    pub magnitude: Vec<f64>,
     pub history: Vec<f64>,
 }
 
@@ -92,6 +93,7 @@ impl Problem {
                 trial: vec![0.0; n],
                 du_prescribed: vec![0.0; n],
                 residual_trial: vec![0.0; n],
+                magnitude: vec![0.0; n],
                 history: Vec::with_capacity(64),
             },
             total_time: 0.0,

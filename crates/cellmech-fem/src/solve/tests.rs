@@ -187,3 +187,35 @@ fn past_a_limit_point_load_control_stops_cleanly_and_keeps_converged_increments(
         .to_string()
         .contains("step 'beyond-limit' stopped at step time"));
 }
+
+#[test]
+fn a_step_that_starts_in_equilibrium_converges_at_once() {
+    // A prestressed spring chain held at both ends: nothing changes during the step, the
+    // residual is round-off relative to the internal forces, and no iteration limit is hit.
+    let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]];
+    let mut set = springs(&nodes, &[[0, 1], [1, 2]], 100.0);
+    set.rest_length = vec![0.8, 0.8]; // 20 nN of tension in both springs
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
+    let mut p = Problem::new(
+        DofMap::translational(3),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut step = Step::new("hold");
+    step.prescribed = (0..3)
+        .chain(6..9)
+        .chain([4, 5])
+        .map(|d| (d, Motion::Hold))
+        .collect();
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    assert!(
+        rec.increments
+            .iter()
+            .all(|&(_, iterations)| iterations == 1),
+        "{:?}",
+        rec.increments
+    );
+    assert!((p.reaction(6) - 20.0).abs() < 1e-10);
+}
