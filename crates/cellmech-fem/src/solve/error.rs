@@ -69,6 +69,21 @@ pub enum SolveError {
         /// What is wrong.
         message: String,
     },
+    /// The step ended without its stop condition being met.
+    #[error(
+        "step '{step}' ended without reaching its target: {monitor} = {last:.6e}, target {target:.6e}; \
+         extend the step's motion"
+    )]
+    TargetNotReached {
+        /// Step name.
+        step: String,
+        /// The monitored quantity.
+        monitor: String,
+        /// The target.
+        target: f64,
+        /// The value at the end of the step.
+        last: f64,
+    },
     /// The linear solver could not analyse the pattern.
     #[error("linear solver: {0}")]
     LinearSolver(#[from] LinSolveError),

@@ -18,7 +18,7 @@ pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};
 pub use problem::{Problem, Timings};
-pub use step::{Motion, NodalLoad, Step};
+pub use step::{Monitor, Motion, NodalLoad, Step, StopCondition};
 
 #[cfg(test)]
 mod tests;

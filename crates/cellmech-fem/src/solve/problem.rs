@@ -3,7 +3,7 @@
 use super::control::StepControl;
 use super::error::SolveError;
 use super::observer::{IncrementReport, Observer};
-use super::step::{Motion, Step};
+use super::step::{Monitor, Motion, Step};
 use crate::assembly::Assembler;
 use crate::dof::DofMap;
 use crate::linsolve::{FactorInfo, LinearSolver};
@@ -187,7 +187,21 @@ impl Problem {
         let mut increments = 0;
         let mut target_u = vec![0.0; n];
         let mut target_f = vec![0.0; n];
-        while time < 1.0 {
+        // Stop condition: g = monitor - target at the last committed state, and a trial time
+        // known to lie beyond the crossing.
+        let gap = |p: &Problem| {
+            step.stop
+                .as_ref()
+                .and_then(|s| p.monitor(&s.monitor).map(|v| v - s.target))
+        };
+        let mut g_prev = gap(self);
+        let mut beyond: Option<(f64, f64)> = None;
+        let mut overshoots = 0;
+        let reached = |g: Option<f64>| match (&step.stop, g) {
+            (Some(s), Some(g)) => g.abs() <= s.tolerance,
+            _ => false,
+        };
+        while time < 1.0 && !reached(g_prev) {
             if time + dt > 1.0 - 1e-12 {
                 dt = 1.0 - time;
             }
@@ -209,7 +223,23 @@ impl Problem {
             for term in &mut self.terms {
                 term.set_load_state(&load_state);
             }
-            match self.newton_increment(&target_u, &target_f, control, observer) {
+            let outcome = self.newton_increment(&target_u, &target_f, control, observer);
+            if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
+                let g = gap(self).unwrap_or(g0);
+                if g.abs() > stop.tolerance && g.signum() != g0.signum() && overshoots < 60 {
+                    // Overshot the target: reject, and aim at the crossing (regula falsi).
+                    overshoots += 1;
+                    for term in &mut self.terms {
+                        term.rollback();
+                    }
+                    self.u = saved_u;
+                    self.f_ext = saved_f;
+                    beyond = Some((t, g));
+                    dt = (t - time) * (g0 / (g0 - g)).clamp(0.02, 0.98);
+                    continue;
+                }
+            }
+            match outcome {
                 Ok(iterations) => {
                     for term in &mut self.terms {
                         term.commit(&self.u, &self.dof_map);
@@ -229,6 +259,12 @@ impl Problem {
                     observer.on_increment(self, &report);
                     if iterations <= control.easy_iterations {
                         dt = (dt * control.growth).min(control.max_increment);
+                    }
+                    g_prev = gap(self);
+                    if let (Some((t_beyond, g_beyond)), Some(g)) = (beyond, g_prev) {
+                        if g != g_beyond {
+                            dt = (t_beyond - time) * (g / (g - g_beyond)).clamp(0.02, 1.0);
+                        }
                     }
                 }
                 Err(reason) => {
@@ -251,9 +287,33 @@ impl Problem {
                 }
             }
         }
+        if let (Some(stop), Some(g)) = (&step.stop, g_prev) {
+            if g.abs() > stop.tolerance {
+                return Err(SolveError::TargetNotReached {
+                    step: step.name.clone(),
+                    monitor: format!("{:?}", stop.monitor),
+                    target: stop.target,
+                    last: g + stop.target,
+                });
+            }
+        }
         self.total_time += step.duration;
         self.steps_done += 1;
         Ok(())
+    }
+
+    /// Value of a monitored quantity at the current state (`None` if a named term output
+    /// does not exist).
+    pub fn monitor(&self, monitor: &Monitor) -> Option<f64> {
+        match monitor {
+            Monitor::ReactionSum(dofs) => Some(self.reaction_sum(dofs.iter().copied())),
+            Monitor::TermScalar(name) => self.terms.iter().find_map(|t| {
+                t.scalar_outputs(&self.u, &self.dof_map)
+                    .into_iter()
+                    .find(|(n, _)| n == name)
+                    .map(|(_, v)| v)
+            }),
+        }
     }
 
     fn check_step(&self, step: &Step) -> Result<(), SolveError> {
@@ -282,6 +342,20 @@ impl Problem {
             return Err(invalid(format!(
                 "prescribed DOF {dof} does not exist ({n} DOFs)"
             )));
+        }
+        if let Some(stop) = &step.stop {
+            if self.monitor(&stop.monitor).is_none() {
+                return Err(invalid(format!(
+                    "no quantity {:?} to monitor",
+                    stop.monitor
+                )));
+            }
+            if !(stop.tolerance > 0.0) {
+                return Err(invalid(format!(
+                    "the stop tolerance must be > 0, found {}",
+                    stop.tolerance
+                )));
+            }
         }
         if let Some(load) = step.loads.iter().find(|l| l.dof >= n) {
             return Err(invalid(format!(

@@ -36,6 +36,32 @@ pub struct Step {
     pub loads: Vec<NodalLoad>,
     /// Increment control and convergence criteria.
     pub control: StepControl,
+    /// End the step early where a monitored quantity reaches a target (e.g. "retract the
+    /// pipette until its force is zero"); the motions are then applied only up to there.
+    pub stop: Option<StopCondition>,
+}
+
+/// A scalar quantity of a converged state.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Monitor {
+    /// A named scalar output of a term (see [`crate::term::Term::scalar_outputs`]), e.g.
+    /// `pipette_force_along_motion_nN`.
+    TermScalar(String),
+    /// The sum of the reactions on these DOFs (nN).
+    ReactionSum(Vec<usize>),
+}
+
+/// Ends a step where `monitor` reaches `target` within `tolerance`. The stepper locates the
+/// crossing by regula falsi on the increment size: an increment that overshoots is rolled
+/// back and retried shorter, so only states on the near side are committed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StopCondition {
+    /// The monitored quantity.
+    pub monitor: Monitor,
+    /// Its target value.
+    pub target: f64,
+    /// Accepted distance from the target (same unit as the quantity, > 0).
+    pub tolerance: f64,
 }
 
 impl Step {
@@ -47,6 +73,7 @@ impl Step {
             prescribed: Vec::new(),
             loads: Vec::new(),
             control: StepControl::default(),
+            stop: None,
         }
     }
 }

@@ -219,3 +219,50 @@ fn a_step_that_starts_in_equilibrium_converges_at_once() {
     );
     assert!((p.reaction(6) - 20.0).abs() < 1e-10);
 }
+
+#[test]
+fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
+    // Three springs in series (2 nN/um each, series stiffness 2/3): pulling the end by up to
+    // 1 um, stop where the end reaction is 0.4 nN, i.e. at an end displacement of 0.6 um.
+    let nodes = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [3.0, 0.0, 0.0],
+    ];
+    let mut p = problem(&nodes, &[[0, 1], [1, 2], [2, 3]], 2.0);
+    let mut step = Step::new("pull-to-force");
+    step.prescribed = (0..3).map(|c| (c, Motion::Hold)).collect();
+    step.prescribed
+        .extend([(9, Motion::By(1.0)), (10, Motion::Hold), (11, Motion::Hold)]);
+    for node in 1..3 {
+        step.prescribed
+            .extend([(3 * node + 1, Motion::Hold), (3 * node + 2, Motion::Hold)]);
+    }
+    step.stop = Some(StopCondition {
+        monitor: Monitor::ReactionSum(vec![9]),
+        target: 0.4,
+        tolerance: 1e-9,
+    });
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    assert!(
+        (p.reaction(9) - 0.4).abs() <= 1e-9,
+        "reaction {}",
+        p.reaction(9)
+    );
+    assert!(
+        (p.u()[9] - 0.6).abs() < 1e-8,
+        "end displacement {}",
+        p.u()[9]
+    );
+    // A target beyond the step's motion is a clear error, with the state kept.
+    step.stop = Some(StopCondition {
+        monitor: Monitor::ReactionSum(vec![9]),
+        target: 5.0,
+        tolerance: 1e-9,
+    });
+    let err = p.run_step(&step, &mut rec).unwrap_err();
+    assert!(matches!(err, SolveError::TargetNotReached { .. }), "{err}");
+    assert!((p.u()[9] - 1.6).abs() < 1e-9);
+}
