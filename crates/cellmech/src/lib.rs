@@ -1,2 +1,3 @@
 //! The cellmech domain layer.
+pub mod cell;
 pub mod units;
