@@ -1,0 +1,483 @@
+//! Tests of the suspended-cell geometry. Each asserts a property that a wrong geometry
+//! would break; the measured numbers are printed with `--nocapture`.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use cellmech_fem::mesh::generate::hex8_quality;
+
+use super::cytoskeleton::{polyline_distance_to_origin, segment_distance_to_origin};
+use super::vec3::{distance, dot, norm, sub};
+use super::*;
+
+const R: f64 = 16.132;
+const R_N: f64 = 6.45;
+
+fn default_geometry() -> SuspendedCellGeometry {
+    SuspendedCellGeometry::build(&SuspendedCellParams::default()).unwrap()
+}
+
+fn print_report(label: &str, g: &SuspendedCellGeometry) {
+    eprintln!("{label}: {:#?}", g.report);
+}
+
+#[test]
+fn default_geometry_has_30_distinct_fa_nodes_on_the_sphere() {
+    let g = default_geometry();
+    print_report("default", &g);
+    assert_eq!(g.report.hex8_elements, 2816);
+    assert_eq!(g.fa_nodes.len(), 30);
+    let distinct: BTreeSet<usize> = g.fa_nodes.iter().cloned().collect();
+    assert_eq!(distinct.len(), 30);
+    let surface = &g.mesh.node_sets["surface"];
+    let sites = icosidodecahedron_unit_vertices();
+    for (k, &n) in g.fa_nodes.iter().enumerate() {
+        assert!(
+            surface.binary_search(&n).is_ok(),
+            "FA {k} not a surface node"
+        );
+        let p = g.mesh.nodes[n];
+        assert!((norm(p) - R).abs() < 1e-12, "FA {k} at radius {}", norm(p));
+        // Symmetric orientation: the FA is the canonical vertex scaled to R.
+        assert!(distance(p, sites[k].map(|c| c * R)) < 1e-12);
+        assert_eq!(g.mesh.node_sets[&format!("fa_{k}")], vec![n]);
+    }
+    let mut sorted = g.fa_nodes.clone();
+    sorted.sort_unstable();
+    assert_eq!(g.mesh.node_sets["focal_adhesions"], sorted);
+    g.mesh.validate().unwrap();
+}
+
+#[test]
+fn af_edges_are_60_equal_edges_of_length_r_over_phi_with_degree_4() {
+    let g = default_geometry();
+    assert_eq!(g.af_edges.len(), 60);
+    let mut degree: BTreeMap<usize, usize> = BTreeMap::new();
+    let unique: BTreeSet<[usize; 2]> = g.af_edges.iter().cloned().collect();
+    assert_eq!(unique.len(), 60);
+    for &[a, b] in &g.af_edges {
+        *degree.entry(a).or_default() += 1;
+        *degree.entry(b).or_default() += 1;
+        let length = distance(g.mesh.nodes[a], g.mesh.nodes[b]);
+        assert!(
+            (length - R / GOLDEN_RATIO).abs() < 1e-12,
+            "AF length {length}"
+        );
+        assert!((length - g.report.af_length).abs() < 1e-12);
+    }
+    assert_eq!(degree.len(), 30);
+    assert!(degree.values().all(|&d| d == 4), "{degree:?}");
+    // The edge is R/φ ≈ 9.97 µm, not R (that would be the cuboctahedron).
+    assert!((g.report.af_length - 9.970).abs() < 1e-3);
+}
+
+#[test]
+fn snapping_keeps_positive_jacobians_and_moves_nodes_by_a_fraction_of_an_element() {
+    for (label, mesh) in [
+        ("default", MeshResolution::default()),
+        ("fine", MeshResolution::fine()),
+    ] {
+        let params = SuspendedCellParams {
+            mesh,
+            ..SuspendedCellParams::default()
+        };
+        let g = SuspendedCellGeometry::build(&params).unwrap();
+        print_report(label, &g);
+        let q = hex8_quality(&g.mesh);
+        eprintln!("{label}: whole mesh {q:?}");
+        assert_eq!(q.elements, mesh.elements());
+        assert!(q.min_gauss_jacobian > 0.0);
+        assert!(g.report.min_gauss_jacobian_after_snap > 0.0);
+        assert!(g.report.max_relative_snap_distance < 0.5);
+        assert!(g.report.min_scaled_jacobian_after_snap > 0.5);
+        // Volume of the cell is still close to 4/3 π R³ (the snap moved nodes on the sphere).
+        let exact = 4.0 / 3.0 * std::f64::consts::PI * R.powi(3);
+        assert!((q.volume - exact).abs() / exact < 0.02);
+    }
+}
+
+#[test]
+fn symmetric_orientation_snaps_axis_fas_exactly_and_the_other_24_equally() {
+    let params = SuspendedCellParams::default();
+    let unsnapped =
+        cellmech_fem::mesh::generate::sphere_mesh(&cellmech_fem::mesh::generate::SphereMeshSpec {
+            radius: R,
+            inner_radius: Some(R_N),
+            ..Default::default()
+        })
+        .unwrap();
+    let g = SuspendedCellGeometry::build(&params).unwrap();
+    let moves: Vec<f64> = g
+        .fa_nodes
+        .iter()
+        .map(|&n| distance(g.mesh.nodes[n], unsnapped.nodes[n]))
+        .collect();
+    assert!(moves[..6].iter().all(|&d| d < 1e-12), "{moves:?}");
+    for d in &moves[6..] {
+        assert!((d - moves[6]).abs() < 1e-9, "{moves:?}");
+    }
+    assert!((moves[6] - g.report.max_snap_distance).abs() < 1e-12);
+    assert!(moves[6] > 0.1);
+    // Nucleus surface untouched.
+    for &n in &g.mesh.node_sets["inner_surface"] {
+        assert_eq!(g.mesh.nodes[n], unsnapped.nodes[n]);
+    }
+}
+
+#[test]
+fn optimized_orientation_is_no_worse_than_symmetric_and_seeded() {
+    let symmetric = default_geometry();
+    let params = SuspendedCellParams {
+        fa_orientation: FaOrientation::Optimized { trials: 200 },
+        ..SuspendedCellParams::default()
+    };
+    let g = SuspendedCellGeometry::build(&params).unwrap();
+    print_report("optimized", &g);
+    assert!(
+        g.report.max_relative_snap_distance <= symmetric.report.max_relative_snap_distance + 1e-12
+    );
+    for &n in &g.fa_nodes {
+        assert!((norm(g.mesh.nodes[n]) - R).abs() < 1e-12);
+    }
+    assert!(hex8_quality(&g.mesh).min_gauss_jacobian > 0.0);
+    assert_eq!(g, SuspendedCellGeometry::build(&params).unwrap());
+    let fine = |fa_orientation| {
+        SuspendedCellGeometry::build(&SuspendedCellParams {
+            mesh: MeshResolution::fine(),
+            fa_orientation,
+            ..SuspendedCellParams::default()
+        })
+        .unwrap()
+    };
+    let (sym, opt) = (
+        fine(FaOrientation::Symmetric),
+        fine(FaOrientation::Optimized { trials: 200 }),
+    );
+    print_report("fine optimized", &opt);
+    assert!(opt.report.max_relative_snap_distance <= sym.report.max_relative_snap_distance + 1e-12);
+    assert!(hex8_quality(&opt.mesh).min_gauss_jacobian > 0.0);
+}
+
+#[test]
+fn microtubules_run_from_the_centrosome_to_each_fa_and_clear_the_nucleus() {
+    let params = SuspendedCellParams::default();
+    let g = default_geometry();
+    assert_eq!(g.microtubules.len(), 30);
+    let c = params.centrosome();
+    assert!((norm(c) - (R_N + 0.75)).abs() < 1e-12);
+    let mut chords_through_nucleus = 0;
+    for (k, mt) in g.microtubules.iter().enumerate() {
+        assert_eq!(mt.fa_node, g.fa_nodes[k]);
+        assert_eq!(mt.elements(), 8);
+        assert_eq!(mt.points[0], c);
+        assert_eq!(*mt.points.last().unwrap(), g.mesh.nodes[mt.fa_node]);
+        let clearance = polyline_distance_to_origin(&mt.points) - R_N;
+        assert!(clearance >= 0.25, "MT {k} clearance {clearance}");
+        assert!(clearance >= g.report.min_mt_clearance - 1e-12);
+        for p in &mt.points {
+            assert!(norm(*p) <= R + 1e-12, "MT {k} leaves the cell");
+        }
+        if segment_distance_to_origin(c, g.mesh.nodes[mt.fa_node]) < R_N {
+            chords_through_nucleus += 1;
+        }
+        assert!(mt.length() > mt.chord(), "MT {k} is straight");
+        assert!(mt.max_curvature() > 0.0);
+        for (t, w) in mt.segment_normals().iter().zip(mt.points.windows(2)) {
+            assert!((norm(*t) - 1.0).abs() < 1e-12);
+            assert!(dot(*t, sub(w[1], w[0])).abs() < 1e-9);
+        }
+    }
+    // The test is meaningful: many straight chords would cross the nucleus.
+    eprintln!("straight chords through the nucleus: {chords_through_nucleus} of 30");
+    assert!(chords_through_nucleus >= 10);
+    let (lo, hi) = g.report.mt_curvature_range;
+    assert!(hi > 1.5 * lo, "curvatures do not vary: {lo}..{hi}");
+    let bows: Vec<f64> = g.microtubules.iter().map(|m| m.bow.abs()).collect();
+    assert!(bows.iter().all(|&b| (0.05..=0.20).contains(&b)));
+    assert!(
+        g.microtubules.iter().any(|m| m.bow > 0.0) && g.microtubules.iter().any(|m| m.bow < 0.0)
+    );
+}
+
+#[test]
+fn microtubule_nodes_are_appended_as_chains() {
+    let g = default_geometry();
+    let mut mesh = g.mesh.clone();
+    let before = mesh.num_nodes();
+    let chains = g.append_microtubule_nodes(&mut mesh);
+    assert_eq!(mesh.num_nodes(), before + 1 + 30 * 7);
+    assert_eq!(mesh.node_sets["centrosome"], vec![before]);
+    assert_eq!(chains.len(), 30);
+    for (mt, chain) in g.microtubules.iter().zip(&chains) {
+        assert_eq!(chain.len(), 9);
+        assert_eq!(chain[0], before);
+        assert_eq!(*chain.last().unwrap(), mt.fa_node);
+        for (&n, p) in chain.iter().zip(&mt.points) {
+            assert_eq!(mesh.nodes[n], *p);
+        }
+    }
+    let interior: BTreeSet<usize> = chains.iter().flat_map(|c| c[1..8].to_vec()).collect();
+    assert_eq!(interior.len(), 30 * 7);
+    mesh.validate().unwrap();
+}
+
+#[test]
+fn intermediate_filaments_are_tangent_to_the_nucleus_and_anchored_on_distinct_nodes() {
+    for rule in [IfAnchorRule::Nearest, IfAnchorRule::NearestVisible] {
+        let mut previous_error = f64::INFINITY;
+        for (label, mesh) in [
+            ("default", MeshResolution::default()),
+            ("fine", MeshResolution::fine()),
+        ] {
+            let params = SuspendedCellParams {
+                mesh,
+                if_anchor_rule: rule,
+                ..SuspendedCellParams::default()
+            };
+            let g = SuspendedCellGeometry::build(&params).unwrap();
+            assert_eq!(g.intermediate_filaments.len(), 60);
+            let inner = &g.mesh.node_sets["inner_surface"];
+            let mut worst: f64 = 0.0;
+            let mut depth: f64 = 0.0;
+            for (i, &[fa, anchor]) in g.intermediate_filaments.iter().enumerate() {
+                assert_eq!(fa, g.fa_nodes[i / 2]);
+                assert!(inner.binary_search(&anchor).is_ok());
+                let (f, a) = (g.mesh.nodes[fa], g.mesh.nodes[anchor]);
+                let angle = if_radius_angle_deg(f, a);
+                worst = worst.max((angle - 90.0).abs());
+                depth = depth.max(R_N - segment_distance_to_origin(f, a));
+                if rule == IfAnchorRule::NearestVisible {
+                    // Visible anchor: the IF leaves the nucleus outwards (angle ≤ 90°) and
+                    // never enters it.
+                    assert!(angle <= 90.0 + 1e-9, "IF {i}: angle {angle}");
+                    assert!(segment_distance_to_origin(f, a) >= R_N * (1.0 - 1e-9));
+                }
+            }
+            let anchors: BTreeSet<usize> = g.intermediate_filaments.iter().map(|f| f[1]).collect();
+            assert_eq!(anchors.len(), 60, "{label}: anchors shared");
+            assert_eq!(g.report.shared_if_anchors, 0);
+            assert!((worst - g.report.max_if_tangency_error_deg).abs() < 1e-9);
+            assert!((depth.max(0.0) - g.report.max_if_nucleus_penetration).abs() < 1e-12);
+            eprintln!(
+                "{rule:?} {label}: IF anchor error max {:.3} mean {:.3} µm, tangency error \
+                 {worst:.2}°, penetration {:.4} µm",
+                g.report.max_if_anchor_error,
+                g.report.mean_if_anchor_error,
+                g.report.max_if_nucleus_penetration
+            );
+            // Anchor error: at most one nucleus-surface element (≈ 1.3 µm default, 0.65 µm
+            // fine) beyond the unconstrained nearest-node distance (the price of distinct
+            // and, for NearestVisible, visible anchors), and it shrinks with the mesh.
+            let spacing = R_N * std::f64::consts::FRAC_PI_2 / mesh.core_divisions as f64;
+            let mut nearest: f64 = 0.0;
+            for &fa in &g.fa_nodes {
+                for t in super::cytoskeleton::tangent_points(g.mesh.nodes[fa], R_N, 2, 0.0) {
+                    let d = inner
+                        .iter()
+                        .map(|&n| distance(g.mesh.nodes[n], t))
+                        .fold(f64::INFINITY, f64::min);
+                    nearest = nearest.max(d);
+                }
+            }
+            eprintln!("{label}: unconstrained nearest-node distance max {nearest:.3} µm");
+            assert!(nearest < 0.75 * spacing);
+            assert!(g.report.max_if_anchor_error >= nearest - 1e-12);
+            assert!(
+                g.report.max_if_anchor_error < nearest + 1.5 * spacing,
+                "{label} {rule:?}"
+            );
+            assert!(g.report.max_if_anchor_error < previous_error);
+            previous_error = g.report.max_if_anchor_error;
+            // Tangency within the snapping error: |angle − 90°| ≲ anchor error / r_n.
+            let bound = (2.0 * g.report.max_if_anchor_error / R_N).to_degrees();
+            assert!(
+                worst < bound,
+                "{label} {rule:?}: {worst}° vs bound {bound}°"
+            );
+        }
+    }
+}
+
+#[test]
+fn ifs_per_fa_sets_the_count_and_the_spacing_on_the_tangent_circle() {
+    for m in [1, 3] {
+        let g = SuspendedCellGeometry::build(&SuspendedCellParams {
+            ifs_per_fa: m,
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(g.intermediate_filaments.len(), 30 * m);
+        for (i, f) in g.intermediate_filaments.iter().enumerate() {
+            assert_eq!(f[0], g.fa_nodes[i / m]);
+        }
+    }
+}
+
+#[test]
+fn same_seed_gives_identical_geometry_and_another_seed_other_curvatures() {
+    let a = default_geometry();
+    let b = default_geometry();
+    assert_eq!(a, b);
+    let c = SuspendedCellGeometry::build(&SuspendedCellParams {
+        seed: 7,
+        ..Default::default()
+    })
+    .unwrap();
+    assert_eq!(
+        a.mesh, c.mesh,
+        "symmetric orientation does not use the seed"
+    );
+    let bows = |g: &SuspendedCellGeometry| g.microtubules.iter().map(|m| m.bow).collect::<Vec<_>>();
+    assert_ne!(bows(&a), bows(&c));
+    assert_ne!(a.report.mt_curvature_range, c.report.mt_curvature_range);
+    // A fixed bow (min = max) leaves only the sides to the seed.
+    let fixed = |seed| {
+        SuspendedCellGeometry::build(&SuspendedCellParams {
+            seed,
+            mt_bow_min: 0.1,
+            mt_bow_max: 0.1,
+            ..Default::default()
+        })
+        .unwrap()
+    };
+    assert!(bows(&fixed(1))
+        .iter()
+        .all(|b| (b.abs() - 0.1).abs() < 1e-15));
+}
+
+#[test]
+fn invalid_parameters_are_rejected_with_clear_errors() {
+    let base = SuspendedCellParams::default();
+    let check = |p: SuspendedCellParams, needle: &str| {
+        let err = SuspendedCellGeometry::build(&p).unwrap_err();
+        assert!(err.to_string().contains(needle), "{err}");
+        err
+    };
+    let e = check(
+        SuspendedCellParams {
+            nucleus_diameter: 40.0,
+            ..base.clone()
+        },
+        "smaller than the cell diameter",
+    );
+    assert!(matches!(e, CellGeometryError::NucleusNotInsideCell { .. }));
+    check(
+        SuspendedCellParams {
+            nucleus_diameter: base.cell_diameter,
+            ..base.clone()
+        },
+        "found 32.264",
+    );
+    let e = check(
+        SuspendedCellParams {
+            ifs_per_fa: 0,
+            ..base.clone()
+        },
+        "at least 1 intermediate filament",
+    );
+    assert_eq!(e, CellGeometryError::TooFewIfsPerFa { found: 0 });
+    check(
+        SuspendedCellParams {
+            centrosome_gap: -0.5,
+            ..base.clone()
+        },
+        "centrosome_gap to be a positive",
+    );
+    let e = check(
+        SuspendedCellParams {
+            centrosome_gap: 10.0,
+            ..base.clone()
+        },
+        "inside the cell",
+    );
+    assert!(matches!(e, CellGeometryError::CentrosomeOutsideCell { .. }));
+    check(
+        SuspendedCellParams {
+            cell_diameter: f64::NAN,
+            ..base.clone()
+        },
+        "cell_diameter",
+    );
+    check(
+        SuspendedCellParams {
+            nucleus_diameter: 0.0,
+            ..base.clone()
+        },
+        "nucleus_diameter",
+    );
+    check(
+        SuspendedCellParams {
+            mt_elements: 1,
+            ..base.clone()
+        },
+        "mt_elements between 2 and 1000; found 1",
+    );
+    check(
+        SuspendedCellParams {
+            mt_bow_min: 0.3,
+            mt_bow_max: 0.2,
+            ..base.clone()
+        },
+        "mt_bow_min = 0.3",
+    );
+    check(
+        SuspendedCellParams {
+            mt_clearance_margin: 1.0,
+            ..base.clone()
+        },
+        "mt_clearance_margin",
+    );
+    check(
+        SuspendedCellParams {
+            centrosome_direction: [0.0; 3],
+            ..base.clone()
+        },
+        "centrosome_direction",
+    );
+    check(
+        SuspendedCellParams {
+            ifs_per_fa: 1000,
+            ..base.clone()
+        },
+        "ifs_per_fa between 1 and 64",
+    );
+    let e = check(
+        SuspendedCellParams {
+            mesh: MeshResolution {
+                core_divisions: 7,
+                ..MeshResolution::default()
+            },
+            ..base.clone()
+        },
+        "even core_divisions",
+    );
+    assert!(matches!(e, CellGeometryError::Mesh(_)));
+    // 26 surface nodes cannot carry 30 FAs.
+    let e = check(
+        SuspendedCellParams {
+            mesh: MeshResolution {
+                core_divisions: 2,
+                shell_layers: 1,
+                outer_layers: 1,
+                core_fraction: 0.5,
+            },
+            ..base.clone()
+        },
+        "snap to node",
+    );
+    assert!(matches!(e, CellGeometryError::FaSnapCollision { .. }));
+}
+
+#[test]
+fn centrosome_direction_towards_an_fa_or_its_antipode_still_routes() {
+    // The first canonical vertex is +z: MT 0 is radial (θ = 0), MT 1 antipodal (θ = π).
+    let g = SuspendedCellGeometry::build(&SuspendedCellParams {
+        centrosome_direction: [0.0, 0.0, 1.0],
+        ..Default::default()
+    })
+    .unwrap();
+    assert!(g.report.min_mt_clearance >= 0.25);
+    for mt in &g.microtubules[..2] {
+        assert!(mt.length() > mt.chord());
+        assert!(polyline_distance_to_origin(&mt.points) > R_N + 0.25);
+    }
+}
