@@ -6,3 +6,6 @@
 
 mod neo_hookean;
 pub use neo_hookean::NeoHookean;
+
+pub mod axial;
+pub use axial::{AxialLaw, AxialLawError, AxialResponse};
