@@ -6,6 +6,7 @@ pub mod hex8;
 pub mod membrane;
 pub mod pressure;
 pub mod spring;
+pub mod truss;
 
 /// A kernel could not evaluate the element (the solver reacts by cutting the step).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

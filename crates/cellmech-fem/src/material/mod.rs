@@ -6,3 +6,6 @@
 
 mod neo_hookean;
 pub use neo_hookean::{NeoHookean, NeoHookeanError, VOIGT_PAIRS};
+
+pub mod axial;
+pub use axial::{AxialLaw, AxialLawError, AxialResponse};
