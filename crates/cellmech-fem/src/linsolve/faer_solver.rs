@@ -36,7 +36,8 @@ pub struct AnalysisInfo {
     pub stored_l: usize,
     /// Number of supernodes.
     pub supernodes: usize,
-    /// Wall time of the ordering, s.
+    /// Wall time of the ordering, s (for [`FillOrdering::Amd`], which faer computes inside its
+    /// symbolic step, this is ordering + symbolic and `symbolic_seconds` is 0).
     pub ordering_seconds: f64,
     /// Wall time of the symbolic factorisation, s.
     pub symbolic_seconds: f64,
