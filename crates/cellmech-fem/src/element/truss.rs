@@ -67,12 +67,12 @@ fn truss_state(
     u: &[f64],
 ) -> Result<(AxialResponse, [f64; 3], f64), KernelError> {
     let l0 = distance(x0a, x0b);
-    if !(l0 > 0.0) {
+    if l0.is_nan() || l0 <= 0.0 {
         return Err(KernelError::DegenerateReference { qp: 0, det_j0: l0 });
     }
     let d: [f64; 3] = std::array::from_fn(|i| x0b[i] + u[3 + i] - x0a[i] - u[i]);
     let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if !(l > 0.0) {
+    if l.is_nan() || l <= 0.0 {
         return Err(KernelError::InvertedElement {
             qp: 0,
             det_f: l / l0,
