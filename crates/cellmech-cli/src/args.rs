@@ -35,6 +35,24 @@ pub enum Command {
     Check(CheckArgs),
     /// Print a built-in example scenario (list them without a name).
     Example(ExampleArgs),
+    /// Time assembly, factorisation, solve and a Newton iteration on sphere meshes.
+    ///
+    /// With --export-matrices DIR the final tangent of each size is written as Matrix Market
+    /// (sphere_<size>.mtx) for `benches/cholmod_compare.py`, which times CHOLMOD on it.
+    Bench(BenchArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Approximate element counts of the sphere meshes.
+    #[arg(long, value_delimiter = ',', default_value = "3000,10000,30000")]
+    pub sizes: Vec<usize>,
+    /// Write each final tangent to DIR/sphere_<size>.mtx.
+    #[arg(long, value_name = "DIR")]
+    pub export_matrices: Option<PathBuf>,
+    /// Print the timings as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]

@@ -6,6 +6,7 @@
 //!
 //! Internal units: µm, nN, kPa (= nN/µm²), s; see [`units`].
 
+pub mod bench;
 pub mod cell;
 pub mod examples;
 pub mod mesh_file;

@@ -1,5 +1,6 @@
 //! Subcommands.
 
+mod bench;
 mod check;
 mod example;
 mod run;
@@ -14,5 +15,6 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Run(args) => run::run(&args),
         Command::Check(args) => check::check(&args),
         Command::Example(args) => example::example(&args),
+        Command::Bench(args) => bench::bench(&args),
     }
 }

@@ -34,7 +34,11 @@ impl SparsityPattern {
             row_idx.extend_from_slice(col);
             col_ptr.push(row_idx.len());
         }
-        SparsityPattern { n, col_ptr, row_idx }
+        SparsityPattern {
+            n,
+            col_ptr,
+            row_idx,
+        }
     }
 
     /// Number of stored entries (lower triangle including the diagonal).
@@ -45,7 +49,10 @@ impl SparsityPattern {
     /// Position of entry `(row, col)` in the value array; `row >= col` is required.
     pub fn position(&self, row: usize, col: usize) -> Option<usize> {
         let (lo, hi) = (self.col_ptr[col], self.col_ptr[col + 1]);
-        self.row_idx[lo..hi].binary_search(&row).ok().map(|k| lo + k)
+        self.row_idx[lo..hi]
+            .binary_search(&row)
+            .ok()
+            .map(|k| lo + k)
     }
 
     /// `y = A x` for the symmetric matrix whose lower triangle `values` holds.

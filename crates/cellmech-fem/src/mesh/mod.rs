@@ -91,7 +91,8 @@ impl ElementBlock {
 
     /// Iterator over the elements' node lists.
     pub fn elements(&self) -> impl Iterator<Item = &[usize]> {
-        self.connectivity.chunks_exact(self.kind.nodes_per_element())
+        self.connectivity
+            .chunks_exact(self.kind.nodes_per_element())
     }
 }
 
@@ -131,7 +132,9 @@ impl Mesh {
 
     /// Nodes whose coordinate satisfies `pred`, in increasing order.
     pub fn select_nodes(&self, pred: impl Fn(&[f64; 3]) -> bool) -> Vec<usize> {
-        (0..self.nodes.len()).filter(|&i| pred(&self.nodes[i])).collect()
+        (0..self.nodes.len())
+            .filter(|&i| pred(&self.nodes[i]))
+            .collect()
     }
 
     /// Axis-aligned bounding box `(min, max)` of the nodes.
@@ -152,11 +155,17 @@ impl Mesh {
         let n = self.nodes.len();
         for b in &self.blocks {
             if b.connectivity.len() % b.kind.nodes_per_element() != 0 {
-                return Err(MeshError::RaggedConnectivity { block: b.name.clone() });
+                return Err(MeshError::RaggedConnectivity {
+                    block: b.name.clone(),
+                });
             }
             if let Some((i, &node)) = b.connectivity.iter().enumerate().find(|(_, &v)| v >= n) {
                 return Err(MeshError::MissingNode {
-                    place: format!("element {} of block '{}'", i / b.kind.nodes_per_element(), b.name),
+                    place: format!(
+                        "element {} of block '{}'",
+                        i / b.kind.nodes_per_element(),
+                        b.name
+                    ),
                     node,
                     num_nodes: n,
                 });
@@ -180,8 +189,14 @@ impl Mesh {
 pub enum MeshError {
     /// A connectivity or set entry names a node that does not exist.
     #[error("{place} refers to node index {node}, but the mesh has only {num_nodes} nodes")]
-    MissingNode { place: String, node: usize, num_nodes: usize },
+    MissingNode {
+        place: String,
+        node: usize,
+        num_nodes: usize,
+    },
     /// A block's connectivity length is not a multiple of its nodes per element.
-    #[error("block '{block}' has a connectivity length that is not a multiple of its nodes per element")]
+    #[error(
+        "block '{block}' has a connectivity length that is not a multiple of its nodes per element"
+    )]
     RaggedConnectivity { block: String },
 }

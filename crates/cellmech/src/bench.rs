@@ -1,0 +1,187 @@
+//! `cellmech bench`: timings of the hot paths on sphere meshes of growing size.
+//!
+//! For each size, a neo-Hookean sphere (cytoplasm-like, K/G = 100) is squeezed by its polar
+//! caps in two increments. The solver's own timers give the mean time of a tangent assembly,
+//! a numeric factorisation and a solve; a Newton iteration is the whole increment time over
+//! its iterations. The tangent at the end can be written in Matrix Market form so that
+//! `benches/cholmod_compare.py` times CHOLMOD on the identical matrix.
+
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use cellmech_fem::continuum::ContinuumBlock;
+use cellmech_fem::dof::DofMap;
+use cellmech_fem::element::hex8::Hex8Formulation;
+use cellmech_fem::linsolve::{FaerSparseSolver, LinearSolver, SparsityPattern};
+use cellmech_fem::material::NeoHookean;
+use cellmech_fem::mesh::generate::{sphere_mesh, SphereMeshSpec};
+use cellmech_fem::solve::{Motion, NullObserver, Problem, Step};
+use cellmech_fem::term::Term;
+use serde::Serialize;
+
+/// Timings for one mesh size.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchCase {
+    /// Hex8 elements.
+    pub elements: usize,
+    /// Degrees of freedom.
+    pub dofs: usize,
+    /// Stored nonzeros of the tangent (lower triangle).
+    pub nonzeros: usize,
+    /// nnz of the Cholesky factor.
+    pub factor_nonzeros: Option<usize>,
+    /// Ordering + symbolic analysis (s), once per model.
+    pub analysis_s: f64,
+    /// Mean residual + tangent assembly (s).
+    pub assembly_s: f64,
+    /// Mean numeric factorisation (s).
+    pub factorization_s: f64,
+    /// Mean forward/backward solve (s).
+    pub solve_s: f64,
+    /// Mean Newton iteration, everything included (s).
+    pub newton_iteration_s: f64,
+    /// (assembly + solve) / factorisation.
+    pub assembly_and_solve_over_factorization: f64,
+    /// Newton iterations timed.
+    pub iterations: usize,
+}
+
+/// The sphere mesh parameters giving about `target` elements.
+pub fn sphere_spec_for(target: usize) -> SphereMeshSpec {
+    // elements = n³ + 6 n² layers with layers ≈ 0.8 n (cube to sphere), n even.
+    let mut best = (usize::MAX, 2, 2);
+    for n in (2..=60).step_by(2) {
+        let layers = ((0.8 * n as f64).round() as usize).max(1);
+        let elements = n * n * n + 6 * n * n * layers;
+        let miss = elements.abs_diff(target);
+        if miss < best.0 {
+            best = (miss, n, layers);
+        }
+    }
+    SphereMeshSpec {
+        radius: 16.132,
+        inner_radius: None,
+        core_divisions: best.1,
+        shell_layers: best.2,
+        ..SphereMeshSpec::default()
+    }
+}
+
+/// Runs the benchmark for a mesh of about `target` elements. Writes the final tangent to
+/// `matrix_out` (Matrix Market, symmetric lower) when given.
+pub fn bench_case(target: usize, matrix_out: Option<&Path>) -> Result<BenchCase, String> {
+    let mesh = sphere_mesh(&sphere_spec_for(target)).map_err(|e| e.to_string())?;
+    let law = NeoHookean {
+        shear_modulus: 0.17,
+        bulk_modulus: 17.0,
+    };
+    let block = ContinuumBlock::new(
+        &mesh.blocks[0],
+        &mesh.nodes,
+        law,
+        Hex8Formulation::MeanDilatation,
+    )
+    .map_err(|e| e.to_string())?;
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(block)];
+    let dof_map = DofMap::translational(mesh.num_nodes());
+    let start = Instant::now();
+    let mut problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))
+        .map_err(|e| e.to_string())?;
+    let analysis_s = start.elapsed().as_secs_f64();
+    let radius = 16.132;
+    let cap = |top: bool| {
+        mesh.select_nodes(|p| {
+            if top {
+                p[2] > 0.93 * radius
+            } else {
+                p[2] < -0.93 * radius
+            }
+        })
+    };
+    let mut step = Step::new("compress");
+    for &n in &cap(false) {
+        step.prescribed
+            .extend((0..3).map(|c| (3 * n + c, Motion::Hold)));
+    }
+    for &n in &cap(true) {
+        step.prescribed.extend([
+            (3 * n, Motion::Hold),
+            (3 * n + 1, Motion::Hold),
+            (3 * n + 2, Motion::By(-0.1 * 2.0 * radius)),
+        ]);
+    }
+    step.control.initial_increment = 0.5;
+    step.control.max_increment = 0.5;
+    let start = Instant::now();
+    problem
+        .run_step(&step, &mut NullObserver)
+        .map_err(|e| e.to_string())?;
+    let total = start.elapsed().as_secs_f64();
+    let t = problem.timings();
+    let iterations = t.factorizations.max(1);
+    let pattern = problem.assembler().pattern().clone();
+    if let Some(path) = matrix_out {
+        write_tangent(&problem, &pattern, path)?;
+    }
+    let factor_nonzeros = {
+        let mut solver = FaerSparseSolver::default();
+        solver.analyze(&pattern).map_err(|e| e.to_string())?;
+        solver.analysis_info().map(|i| i.nnz_l)
+    };
+    let assembly_s = t.assembly_s / t.assemblies.max(1) as f64;
+    let factorization_s = t.factorization_s / iterations as f64;
+    let solve_s = t.solve_s / iterations as f64;
+    Ok(BenchCase {
+        elements: mesh.num_elements(),
+        dofs: pattern.n,
+        nonzeros: pattern.nnz(),
+        factor_nonzeros,
+        analysis_s,
+        assembly_s,
+        factorization_s,
+        solve_s,
+        newton_iteration_s: total / iterations as f64,
+        assembly_and_solve_over_factorization: (assembly_s + solve_s) / factorization_s,
+        iterations,
+    })
+}
+
+/// Writes the tangent at the problem's current state (prescribed DOFs as unit rows).
+fn write_tangent(problem: &Problem, pattern: &SparsityPattern, path: &Path) -> Result<(), String> {
+    let n = pattern.n;
+    let mut residual = vec![0.0; n];
+    let mut values = vec![0.0; pattern.nnz()];
+    let prescribed: Vec<bool> = (0..n).map(|d| problem.is_prescribed(d)).collect();
+    problem
+        .assembler()
+        .assemble(
+            problem.terms(),
+            problem.u(),
+            &prescribed,
+            cellmech_fem::assembly::AssemblyOutput {
+                residual: &mut residual,
+                magnitude: None,
+                tangent: Some(&mut values),
+                predictor: None,
+            },
+        )
+        .map_err(|e| e.to_string())?;
+    let mut text = Vec::with_capacity(pattern.nnz() * 40);
+    let io = |e: std::io::Error| e.to_string();
+    writeln!(text, "%%MatrixMarket matrix coordinate real symmetric").map_err(io)?;
+    writeln!(text, "{n} {n} {}", pattern.nnz()).map_err(io)?;
+    for c in 0..n {
+        for k in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+            writeln!(
+                text,
+                "{} {} {:.17e}",
+                pattern.row_idx[k] + 1,
+                c + 1,
+                values[k]
+            )
+            .map_err(io)?;
+        }
+    }
+    cellmech_io::write_atomic(path, &text).map_err(|e| e.to_string())
+}
