@@ -29,14 +29,14 @@ pub enum ContinuumBlockError {
         kind: &'static str,
     },
     /// An element's reference geometry is degenerate or inverted.
-    #[error("element {element} of set '{block}': {source}")]
+    #[error("element {element} of set '{block}': {error}")]
     BadElement {
         /// Block name.
         block: String,
         /// Element index in the block.
         element: usize,
         /// The kernel's complaint.
-        source: KernelError,
+        error: KernelError,
     },
 }
 
@@ -60,10 +60,10 @@ impl ContinuumBlock {
             let conn: [usize; 8] = std::array::from_fn(|a| element[a]);
             let x0: [[f64; 3]; 8] = std::array::from_fn(|a| nodes[conn[a]]);
             let reference =
-                Hex8Reference::new(&x0).map_err(|source| ContinuumBlockError::BadElement {
+                Hex8Reference::new(&x0).map_err(|error| ContinuumBlockError::BadElement {
                     block: block.name.clone(),
                     element: e,
-                    source,
+                    error,
                 })?;
             connectivity.push(conn);
             references.push(reference);

@@ -35,10 +35,10 @@ pub struct BuiltModel {
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// A continuum block is unsupported or has a bad element.
-    #[error("{0}")]
+    #[error(transparent)]
     Continuum(#[from] cellmech_fem::continuum::ContinuumBlockError),
     /// The engine rejected the problem.
-    #[error("{0}")]
+    #[error(transparent)]
     Solve(#[from] SolveError),
 }
 

@@ -62,7 +62,7 @@ pub struct SystemSize {
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     /// The model could not be built.
-    #[error("building the model: {0}")]
+    #[error("building the model")]
     Build(#[from] BuildError),
     /// An output could not be written.
     #[error("writing outputs: {0}")]

@@ -9,7 +9,8 @@ use crate::args::CheckArgs;
 pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = cellmech::scenario::load(&args.scenario)
         .with_context(|| format!("checking scenario {}", args.scenario.display()))?;
-    cellmech::model::build(&scenario).with_context(|| "building the model")?;
+    cellmech::model::build(&scenario)
+        .with_context(|| format!("building the model of {}", scenario.origin))?;
     let blocks: Vec<_> = scenario
         .mesh
         .blocks

@@ -48,7 +48,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             );
             Ok(ExitCode::from(1))
         }
-        Err(other) => Err(other.into()),
+        Err(other) => {
+            Err(anyhow::Error::new(other).context(format!("running {}", scenario.origin)))
+        }
     }
 }
 

@@ -20,14 +20,14 @@ use crate::term::{Term, MAX_ELEMENT_DOFS};
 
 /// An element kernel failed during assembly.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("element {element} of '{term}': {source}")]
+#[error("element {element} of '{term}': {error}")]
 pub struct AssemblyError {
     /// Name of the term (element set).
     pub term: String,
     /// Element index within the term.
     pub element: usize,
     /// What went wrong.
-    pub source: KernelError,
+    pub error: KernelError,
 }
 
 /// Scatter layout of one term.
@@ -213,10 +213,10 @@ fn assemble_element(
             &mut r_e[..n],
             want_tangent.then_some(&mut k_e[..n * n]),
         )
-        .map_err(|source| AssemblyError {
+        .map_err(|error| AssemblyError {
             term: term.name().to_string(),
             element: e,
-            source,
+            error,
         })?;
     // SAFETY (all writes below): elements of one colour share no DOF, so no other thread
     // touches these residual entries or the pattern entries coupling these DOFs.

@@ -7,10 +7,10 @@ use crate::linsolve::LinSolveError;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FailureReason {
     /// An element could not be evaluated (e.g. inverted).
-    #[error("{0}")]
+    #[error(transparent)]
     Element(#[from] AssemblyError),
     /// The tangent could not be factorised.
-    #[error("{0}")]
+    #[error(transparent)]
     Singular(#[from] LinSolveError),
     /// The residual grew beyond the divergence limit.
     #[error("Newton diverged at iteration {iteration}: |R|/|R0| = {ratio:.3e}")]
@@ -85,6 +85,6 @@ pub enum SolveError {
         last: f64,
     },
     /// The linear solver could not analyse the pattern.
-    #[error("linear solver: {0}")]
+    #[error(transparent)]
     LinearSolver(#[from] LinSolveError),
 }

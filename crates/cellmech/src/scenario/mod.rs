@@ -109,12 +109,12 @@ impl PlotFormat {
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("{path}: cannot read the scenario: {source}")]
+    #[error("{path}: cannot read the scenario: {error}")]
     Read {
         /// Scenario path.
         path: String,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The TOML is malformed, has unknown keys, or a value of the wrong form or unit.
     #[error("{path}: {message}")]
@@ -148,9 +148,9 @@ pub enum ScenarioError {
 
 /// Reads, parses and resolves a scenario file. Relative mesh paths are relative to it.
 pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
+    let text = std::fs::read_to_string(path).map_err(|error| ScenarioError::Read {
         path: path.display().to_string(),
-        source,
+        error,
     })?;
     let base = path
         .parent()

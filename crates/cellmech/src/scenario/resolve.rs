@@ -6,7 +6,7 @@ use std::path::Path;
 use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::NeoHookean;
 use cellmech_fem::mesh::generate::{box_mesh, sphere_mesh, SphereMeshSpec};
-use cellmech_fem::mesh::Mesh;
+use cellmech_fem::mesh::{ElementKind, Mesh};
 use cellmech_fem::solve::{Convergence, StepControl};
 use toml::Spanned;
 
@@ -243,7 +243,19 @@ fn resolve_materials(
             formulation,
         });
     }
-    for block in &mesh.blocks {
+    // Surface and line blocks of a mesh file (e.g. Gmsh physical surfaces) need no
+    // continuum material; volume blocks do.
+    let is_volume = |k: ElementKind| {
+        matches!(
+            k,
+            ElementKind::Hex8
+                | ElementKind::Tet4
+                | ElementKind::Tet10
+                | ElementKind::Wedge6
+                | ElementKind::Hex20
+        )
+    };
+    for block in mesh.blocks.iter().filter(|b| is_volume(b.kind)) {
         if !out.iter().any(|m| m.element_set == block.name) {
             return Err(ctx.invalid(
                 None,

@@ -1,0 +1,210 @@
+//! End-to-end tests of the `cellmech` binary: shipped examples run and give the right
+//! numbers; bad input gives a clear message (file, line or key, expected, found) and exit
+//! code 2; a diverging analysis stops with exit code 1 and keeps what converged.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use cellmech_fem::material::NeoHookean;
+use cellmech_fem::verify::analytic::uniaxial_stress;
+
+fn scratch(name: &str) -> PathBuf {
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "cellmech-cli-{}-{}-{name}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::SeqCst)
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn cellmech(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cellmech"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn examples() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn block_example_runs_and_its_force_matches_the_closed_form() {
+    let out = scratch("block");
+    let scenario = examples().join("block-uniaxial.toml");
+    let o = cellmech(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(summary["status"], "completed");
+    let force = summary["final_values"]["end_fx_nN"].as_f64().unwrap();
+    let law = NeoHookean::from_shear_poisson(0.17, 0.45).unwrap();
+    let expected = uniaxial_stress(&law, 2.0).unwrap().nominal * 100.0;
+    assert!(
+        (force / expected - 1.0).abs() < 1e-3,
+        "force {force} vs {expected}"
+    );
+    for file in [
+        "curve.csv",
+        "curve.png",
+        "convergence.csv",
+        "fields.pvd",
+        "fields_0000.vtu",
+        "summary.json",
+    ] {
+        assert!(out.join(file).exists(), "{file} missing");
+    }
+    let curve = std::fs::read_to_string(out.join("curve.csv")).unwrap();
+    assert!(curve.starts_with("step,increment,time,end_ux_um,end_fx_nN"));
+    assert!(curve.lines().count() > 3);
+}
+
+#[test]
+fn check_accepts_every_shipped_example() {
+    for entry in std::fs::read_dir(examples()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) == Some("toml") {
+            let o = cellmech(&["check", path.to_str().unwrap(), "--quiet"]);
+            assert!(o.status.success(), "{}: {}", path.display(), stderr(&o));
+        }
+    }
+}
+
+/// Writes a scenario (and optional extra files) and runs `cellmech check` on it.
+fn check_text(name: &str, scenario: &str, extra: &[(&str, &str)]) -> (Output, PathBuf) {
+    let dir = scratch(name);
+    for (file, text) in extra {
+        std::fs::write(dir.join(file), text).unwrap();
+    }
+    let path = dir.join("scenario.toml");
+    std::fs::write(&path, scenario).unwrap();
+    (cellmech(&["check", path.to_str().unwrap()]), path)
+}
+
+const BOX: &str = r#"
+[mesh]
+source = "box"
+size = ["2 um", "2 um", "2 um"]
+divisions = [1, 1, 1]
+
+[[material]]
+element_set = "solid"
+shear_modulus = "1 kPa"
+bulk_modulus = "10 kPa"
+"#;
+
+fn assert_bad_input(o: &Output, path: &Path, needles: &[&str]) {
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(o));
+    let message = stderr(o);
+    assert!(
+        message.contains(&path.display().to_string()) || message.contains("scenario"),
+        "{message}"
+    );
+    for needle in needles {
+        assert!(
+            message.contains(needle),
+            "expected {needle:?} in: {message}"
+        );
+    }
+    assert!(!message.contains("panicked"), "{message}");
+}
+
+#[test]
+fn unknown_key_is_reported_with_its_line() {
+    let text = format!("{BOX}\n[[step]]\nname = \"s\"\nincrement = 0.1\n");
+    let (o, path) = check_text("unknown-key", &text, &[]);
+    assert_bad_input(&o, &path, &["unknown field `increment`", "line 14"]);
+}
+
+#[test]
+fn missing_unit_is_reported_with_its_line() {
+    let text = BOX.replace("shear_modulus = \"1 kPa\"", "shear_modulus = 1.0") + "[[step]]\n";
+    let (o, path) = check_text("missing-unit", &text, &[]);
+    assert_bad_input(&o, &path, &["pressure", "bare number", "line 9"]);
+}
+
+#[test]
+fn unknown_node_set_is_reported_with_the_sets_that_exist() {
+    let text = format!("{BOX}\n[[step]]\n  [[step.fix]]\n  node_set = \"bottom\"\n");
+    let (o, path) = check_text("node-set", &text, &[]);
+    assert_bad_input(&o, &path, &["no node set \"bottom\"", "z_min", ":14"]);
+}
+
+#[test]
+fn broken_mesh_file_is_reported_with_its_line() {
+    let msh = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n0 0 0\n1 0\n$EndNodes\n";
+    let text = "[mesh]\nsource = \"file\"\npath = \"cell.msh\"\n[[step]]\n";
+    let (o, path) = check_text("msh", text, &[("cell.msh", msh)]);
+    assert_bad_input(&o, &path, &["cell.msh", "line 10"]);
+}
+
+#[test]
+fn inverted_element_and_tetrahedra_are_rejected_before_solving() {
+    let nodes = "*NODE\n1,0,0,0\n2,1,0,0\n3,1,1,0\n4,0,1,0\n5,0,0,1\n6,1,0,1\n7,1,1,1\n8,0,1,1\n";
+    let scenario = "[mesh]\nsource = \"file\"\npath = \"m.inp\"\n[[material]]\nelement_set = \"BODY\"\nshear_modulus = \"1 kPa\"\npoisson_ratio = 0.3\n[[step]]\n";
+    let mirrored = format!("{nodes}*ELEMENT, TYPE=C3D8, ELSET=BODY\n1,5,6,7,8,1,2,3,4\n");
+    let (o, path) = check_text("inverted", scenario, &[("m.inp", &mirrored)]);
+    assert_bad_input(
+        &o,
+        &path,
+        &["element 0 of set 'BODY'", "check the node order"],
+    );
+    let tets = format!("{nodes}*ELEMENT, TYPE=C3D4, ELSET=BODY\n1,1,2,4,5\n");
+    let (o, path) = check_text("tets", scenario, &[("m.inp", &tets)]);
+    assert_bad_input(&o, &path, &["tet4", "only hex8"]);
+}
+
+#[test]
+fn diverging_analysis_stops_cleanly_and_keeps_converged_increments() {
+    // Squash a cube to nothing: elements invert before the end of the step.
+    let dir = scratch("diverge");
+    let text = format!(
+        "{BOX}\n[[step]]\nname = \"crush\"\nmin_increment = 0.01\n  [[step.fix]]\n  node_set = \"z_min\"\n  [[step.displace]]\n  node_set = \"z_max\"\n  z = \"-2.5 um\"\n[[output.curve]]\nnode_set = \"z_max\"\ncomponent = \"z\"\n"
+    );
+    let path = dir.join("crush.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join("out");
+    let o = cellmech(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let message = stderr(&o);
+    assert!(
+        message.contains("step 'crush' stopped at step time"),
+        "{message}"
+    );
+    assert!(message.contains("inverted element"), "{message}");
+    let curve = std::fs::read_to_string(out.join("curve.csv")).unwrap();
+    assert!(curve.lines().count() >= 3, "converged rows kept: {curve}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "failed");
+}
+
+#[test]
+fn default_run_without_a_scenario_writes_its_outputs() {
+    let out = scratch("default");
+    let o = cellmech(&["run", "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "completed");
+    assert!(summary["final_values"]["top_fz_nN"].as_f64().unwrap() > 1.0);
+    assert!(out.join("curve.png").exists() && out.join("fields.pvd").exists());
+}
