@@ -96,7 +96,11 @@ impl Observer for Curve {
         let out = top.scalar_outputs(p.u(), p.dof_map());
         let get = |n: &str| out.iter().find(|(k, _)| k.ends_with(n)).unwrap().1;
         // Every converged increment keeps the penetration below the stated tolerance.
-        assert!(get("_max_penetration_um") <= 1e-3, "penetration {}", get("_max_penetration_um"));
+        assert!(
+            get("_max_penetration_um") <= 1e-3,
+            "penetration {}",
+            get("_max_penetration_um")
+        );
         self.0.push((
             -get("_displacement_z_um") / (2.0 * RADIUS),
             get("_force_along_motion_nN"),

@@ -7,95 +7,12 @@
 
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::element::truss::TrussSet;
-use cellmech_fem::linsolve::{
-    FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern,
-};
+use cellmech_fem::linsolve::DenseSolver;
 use cellmech_fem::material::AxialLaw;
 use cellmech_fem::solve::{
     FailureReason, IncrementReport, IterationReport, Motion, NodalLoad, Observer, Problem, Step,
 };
 use cellmech_fem::term::Term;
-
-/// Dense Gaussian elimination with partial pivoting on the full symmetric matrix: an
-/// independent reference solver for systems of a few dozen DOFs.
-#[derive(Default)]
-struct DenseLu {
-    pattern: Option<SparsityPattern>,
-    a: Vec<f64>,
-    perm: Vec<usize>,
-}
-
-impl LinearSolver for DenseLu {
-    fn analyze(&mut self, pattern: &SparsityPattern) -> Result<(), LinSolveError> {
-        self.pattern = Some(pattern.clone());
-        Ok(())
-    }
-
-    fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError> {
-        let p = self
-            .pattern
-            .as_ref()
-            .ok_or_else(|| LinSolveError::Usage("factorize before analyze".into()))?;
-        let n = p.n;
-        let mut a = vec![0.0; n * n];
-        for col in 0..n {
-            for k in p.col_ptr[col]..p.col_ptr[col + 1] {
-                let row = p.row_idx[k];
-                a[row * n + col] = values[k];
-                a[col * n + row] = values[k];
-            }
-        }
-        let mut perm: Vec<usize> = (0..n).collect();
-        for k in 0..n {
-            let mut best = k;
-            for i in k + 1..n {
-                if a[i * n + k].abs() > a[best * n + k].abs() {
-                    best = i;
-                }
-            }
-            if a[best * n + k] == 0.0 {
-                return Err(LinSolveError::Singular(format!("column {k}")));
-            }
-            if best != k {
-                for j in 0..n {
-                    a.swap(k * n + j, best * n + j);
-                }
-                perm.swap(k, best);
-            }
-            let pivot = a[k * n + k];
-            for i in k + 1..n {
-                let factor = a[i * n + k] / pivot;
-                a[i * n + k] = factor;
-                if factor != 0.0 {
-                    for j in k + 1..n {
-                        a[i * n + j] -= factor * a[k * n + j];
-                    }
-                }
-            }
-        }
-        self.a = a;
-        self.perm = perm;
-        Ok(FactorInfo {
-            method: FactorMethod::Lu,
-            negative_pivots: None,
-        })
-    }
-
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        let n = rhs.len();
-        let mut x: Vec<f64> = self.perm.iter().map(|&p| rhs[p]).collect();
-        for i in 0..n {
-            let s: f64 = (0..i).map(|j| self.a[i * n + j] * x[j]).sum();
-            x[i] -= s;
-        }
-        for i in (0..n).rev() {
-            let s: f64 = (i + 1..n).map(|j| self.a[i * n + j] * x[j]).sum();
-            x[i] = (x[i] - s) / self.a[i * n + i];
-        }
-        rhs.copy_from_slice(&x);
-        Ok(())
-    }
-}
 
 /// Converged increments (time, iterations, DOF values, reactions) and cutbacks.
 #[derive(Default)]
@@ -136,7 +53,7 @@ fn problem(num_nodes: usize, terms: Vec<Box<dyn Term>>) -> Problem {
     Problem::new(
         DofMap::translational(num_nodes),
         terms,
-        Box::new(DenseLu::default()),
+        Box::new(DenseSolver::default()),
     )
     .expect("the problem builds")
 }
@@ -626,4 +543,27 @@ fn truss_stiffness_range_chain_with_slack_filament_matches_series_closed_form() 
     assert_eq!(rec.cutbacks, 0);
     let last = rec.increments.last().unwrap();
     assert!((last.reaction[12] - n_end).abs() <= 1e-8 * n_end);
+}
+
+// GOAL: the prestrain is ramped in over an analysis step (as the cell models' first step
+// does). MESH: one AF between held nodes. REFERENCE: N(t) = EA·0.24·t during the step.
+#[test]
+fn truss_prestrain_ramps_in_linearly_over_its_step() {
+    let x = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]];
+    let mut set = TrussSet::new("af", "actin", &x, vec![[0, 1]], actin()).unwrap();
+    set.ramp_prestrain_in_step(0);
+    let mut p = problem(2, vec![Box::new(set)]);
+    let mut step = Step::new("prestress");
+    step.prescribed = hold(&[0, 1, 2, 3, 4, 5]);
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    let ea = actin().axial_stiffness();
+    assert!(rec.increments.len() > 2);
+    for c in &rec.increments {
+        assert!(
+            (c.reaction[3] - ea * 0.24 * c.time).abs() <= 1e-12 * ea,
+            "t = {}",
+            c.time
+        );
+    }
 }

@@ -20,7 +20,7 @@ use super::KernelError;
 use crate::dof::DofMap;
 use crate::material::{AxialLaw, AxialLawError, AxialResponse};
 use crate::mesh::ElementKind;
-use crate::term::{CellField, Term, TermOutput};
+use crate::term::{CellField, LoadState, Term, TermOutput};
 
 /// Energy (nN·µm), residual (6) and row-major tangent (6×6) of one truss.
 ///
@@ -189,6 +189,10 @@ pub struct TrussSet {
     reference: Vec<[[f64; 3]; 2]>,
     laws: Vec<AxialLaw>,
     enabled: bool,
+    /// Analysis step during which the prestrain ramps from 0 to the laws' value.
+    prestrain_ramp_step: Option<usize>,
+    /// Fraction of the laws' prestrain currently applied (1 without a ramp).
+    prestrain_factor: f64,
 }
 
 impl TrussSet {
@@ -262,7 +266,27 @@ impl TrussSet {
             reference,
             laws,
             enabled: true,
+            prestrain_ramp_step: None,
+            prestrain_factor: 1.0,
         })
+    }
+
+    /// Ramps the prestrain in during analysis step `step` (0 before it, the laws' value after
+    /// it, linear in the step time during it), so that a prestressed structure can find its
+    /// equilibrium gradually.
+    pub fn ramp_prestrain_in_step(&mut self, step: usize) {
+        self.prestrain_ramp_step = Some(step);
+        self.prestrain_factor = 0.0;
+    }
+
+    /// The law of element `e` with the prestrain currently applied.
+    fn effective_law(&self, e: usize) -> AxialLaw {
+        let law = self.laws[e];
+        if self.prestrain_factor == 1.0 {
+            law
+        } else {
+            law.with_prestrain(law.prestrain * self.prestrain_factor)
+        }
     }
 
     /// The family this set belongs to.
@@ -342,7 +366,7 @@ impl TrussSet {
             }
         }
         let [xa, xb] = &self.reference[e];
-        let (response, _, l) = truss_state(&self.laws[e], xa, xb, &u_e)?;
+        let (response, _, l) = truss_state(&self.effective_law(e), xa, xb, &u_e)?;
         Ok((response, l))
     }
 
@@ -410,7 +434,17 @@ impl Term for TrussSet {
         tangent: Option<&mut [f64]>,
     ) -> Result<f64, KernelError> {
         let [a, b] = &self.reference[e];
-        truss_evaluate(&self.laws[e], a, b, u_e, residual, tangent)
+        truss_evaluate(&self.effective_law(e), a, b, u_e, residual, tangent)
+    }
+
+    fn set_load_state(&mut self, state: &LoadState) {
+        if let Some(step) = self.prestrain_ramp_step {
+            self.prestrain_factor = match state.step_index.cmp(&step) {
+                std::cmp::Ordering::Less => 0.0,
+                std::cmp::Ordering::Equal => state.step_time,
+                std::cmp::Ordering::Greater => 1.0,
+            };
+        }
     }
 
     /// Line cells with `axial_force_nN`, `axial_stress_kPa`, `axial_strain` (relative to the
