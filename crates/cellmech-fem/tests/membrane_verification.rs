@@ -12,95 +12,11 @@ use std::collections::HashMap;
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::element::membrane::MembraneSet;
 use cellmech_fem::element::pressure::{PressureLoad, SurfaceVolume, VolumeControl};
-use cellmech_fem::linsolve::{
-    FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern,
-};
+use cellmech_fem::linsolve::DenseSolver;
 use cellmech_fem::mesh::ElementKind;
 use cellmech_fem::solve::{IncrementReport, Motion, NullObserver, Observer, Problem, Step};
 use cellmech_fem::term::Term;
 
-/// Dense LU with partial pivoting (an independent reference solver for small systems).
-#[derive(Default)]
-struct DenseLu {
-    pattern: Option<SparsityPattern>,
-    lu: Vec<f64>,
-    pivots: Vec<usize>,
-}
-
-impl LinearSolver for DenseLu {
-    fn analyze(&mut self, pattern: &SparsityPattern) -> Result<(), LinSolveError> {
-        self.pattern = Some(pattern.clone());
-        Ok(())
-    }
-
-    fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError> {
-        let p = self
-            .pattern
-            .as_ref()
-            .ok_or(LinSolveError::Usage("not analysed".into()))?;
-        let n = p.n;
-        self.lu = vec![0.0; n * n];
-        for c in 0..n {
-            for k in p.col_ptr[c]..p.col_ptr[c + 1] {
-                let r = p.row_idx[k];
-                self.lu[r * n + c] = values[k];
-                self.lu[c * n + r] = values[k];
-            }
-        }
-        self.pivots = (0..n).collect();
-        for k in 0..n {
-            let piv = (k..n)
-                .max_by(|&a, &b| {
-                    self.lu[a * n + k]
-                        .abs()
-                        .total_cmp(&self.lu[b * n + k].abs())
-                })
-                .unwrap_or(k);
-            if self.lu[piv * n + k] == 0.0 {
-                return Err(LinSolveError::Singular(format!("zero pivot in column {k}")));
-            }
-            if piv != k {
-                for j in 0..n {
-                    self.lu.swap(k * n + j, piv * n + j);
-                }
-                self.pivots.swap(k, piv);
-            }
-            let (top, rest) = self.lu.split_at_mut((k + 1) * n);
-            let row_k = &top[k * n..];
-            for row in rest.chunks_exact_mut(n) {
-                let f = row[k] / row_k[k];
-                row[k] = f;
-                if f != 0.0 {
-                    for j in k + 1..n {
-                        row[j] -= f * row_k[j];
-                    }
-                }
-            }
-        }
-        Ok(FactorInfo {
-            method: FactorMethod::Lu,
-            negative_pivots: None,
-        })
-    }
-
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        let n = rhs.len();
-        let mut y: Vec<f64> = self.pivots.iter().map(|&p| rhs[p]).collect();
-        for i in 0..n {
-            for j in 0..i {
-                y[i] -= self.lu[i * n + j] * y[j];
-            }
-        }
-        for i in (0..n).rev() {
-            for j in i + 1..n {
-                y[i] -= self.lu[i * n + j] * y[j];
-            }
-            y[i] /= self.lu[i * n + i];
-        }
-        rhs.copy_from_slice(&y);
-        Ok(())
-    }
-}
 
 /// A flat sheet [0, lx] × [0, ly] of nx × ny quads (or two triangles per quad) with interior
 /// nodes displaced by `distortion` times a fixed pattern.
@@ -155,7 +71,7 @@ fn membrane_problem(
     Problem::new(
         DofMap::translational(nodes.len()),
         terms,
-        Box::new(DenseLu::default()),
+        Box::new(DenseSolver::default()),
     )
     .unwrap()
 }
@@ -375,7 +291,7 @@ fn membrane_balloon_inflation_follows_analytic_curve_through_limit_point() {
     let (p_dof, dv_dof) = (control.pressure_dof(&map), control.volume_change_dof(&map));
     let v0 = control.reference_volume();
     let terms: Vec<Box<dyn Term>> = vec![Box::new(membrane), Box::new(control)];
-    let mut problem = Problem::new(map, terms, Box::new(DenseLu::default())).unwrap();
+    let mut problem = Problem::new(map, terms, Box::new(DenseSolver::default())).unwrap();
     let lambda_max: f64 = 1.9;
     let mut step = Step::new("inflate");
     step.prescribed
@@ -451,7 +367,7 @@ fn membrane_balloon_under_prescribed_pressure_reaches_analytic_stretch() {
     let handle = load.pressure_handle();
     let terms: Vec<Box<dyn Term>> = vec![Box::new(membrane), Box::new(load)];
     let map = DofMap::translational(nodes.len());
-    let mut problem = Problem::new(map, terms, Box::new(DenseLu::default())).unwrap();
+    let mut problem = Problem::new(map, terms, Box::new(DenseSolver::default())).unwrap();
     let scale = mu * h / r0;
     let analytic = |l: f64| 2.0 * scale * (1.0 / l - l.powi(-7));
     let l_peak = 7f64.powf(1.0 / 6.0);
