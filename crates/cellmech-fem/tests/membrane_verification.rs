@@ -17,7 +17,6 @@ use cellmech_fem::mesh::ElementKind;
 use cellmech_fem::solve::{IncrementReport, Motion, NullObserver, Observer, Problem, Step};
 use cellmech_fem::term::Term;
 
-
 /// A flat sheet [0, lx] × [0, ly] of nx × ny quads (or two triangles per quad) with interior
 /// nodes displaced by `distortion` times a fixed pattern.
 fn sheet(

@@ -10,6 +10,7 @@
 
 pub mod cytoskeleton;
 pub mod geometry;
+pub mod suspended;
 mod vec3;
 
 use cellmech_fem::mesh::generate::{sphere_mesh, GenerateError, SphereMeshSpec};
