@@ -218,13 +218,15 @@ pub(super) fn resolve_tools(
             "disk" => &["center", "normal", "radius"],
             "paraboloid" => &["apex", "axis", "tip_radius"],
             "sphere" => &["center", "radius"],
-            other => return Err(ctx.invalid(
-                shape_span,
-                &key("shape"),
-                format!(
+            other => {
+                return Err(ctx.invalid(
+                    shape_span,
+                    &key("shape"),
+                    format!(
                     "expected \"plate\", \"disk\", \"paraboloid\" or \"sphere\"; found \"{other}\""
                 ),
-            )),
+                ))
+            }
         };
         let given = [
             ("point", s.point.as_ref().map(|v| v.span())),
