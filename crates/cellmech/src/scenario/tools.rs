@@ -561,7 +561,9 @@ pub(super) fn check_reach(
             .iter()
             .position(|m| m.tool == tool.name)
             .unwrap_or(0);
-        let span = raw_steps[k].get(j).map(|s| s.name.span());
+        let span = raw_steps[k]
+            .get(j)
+            .map(|s| s.movement.as_ref().map_or(s.name.span(), |m| m.span()));
         let key = format!("step[{k}].tool[{j}].move");
         if gap.is_infinite() {
             return Err(ctx.invalid(
