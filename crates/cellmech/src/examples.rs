@@ -27,6 +27,26 @@ pub const EXAMPLES: &[Example] = &[
         summary: "neo-Hookean block stretched to twice its length (closed-form check)",
         text: include_str!("../../../examples/block-uniaxial.toml"),
     },
+    Example {
+        name: "plate-compression",
+        summary: "sphere between two rigid frictionless plates, 30 % compression",
+        text: include_str!("../../../examples/plate-compression.toml"),
+    },
+    Example {
+        name: "afm-indentation",
+        summary: "paraboloid AFM tip indenting a soft layer (quarter model)",
+        text: include_str!("../../../examples/afm-indentation.toml"),
+    },
+    Example {
+        name: "colloidal-probe",
+        summary: "rigid bead indenting a soft layer, against Hertz (quarter model)",
+        text: include_str!("../../../examples/colloidal-probe.toml"),
+    },
+    Example {
+        name: "pipette-tension",
+        summary: "bonded micropipettes: contact, unload to zero force, stretch",
+        text: include_str!("../../../examples/pipette-tension.toml"),
+    },
 ];
 
 /// The example run by `cellmech run` without a scenario.

@@ -37,6 +37,9 @@ pub enum BuildError {
     /// A continuum block is unsupported or has a bad element.
     #[error(transparent)]
     Continuum(#[from] cellmech_fem::continuum::ContinuumBlockError),
+    /// A rigid tool could not be set up.
+    #[error("{0}")]
+    Contact(#[from] cellmech_fem::contact::ContactError),
     /// The engine rejected the problem.
     #[error(transparent)]
     Solve(#[from] SolveError),
@@ -58,11 +61,16 @@ pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
             )?));
         }
     }
+    terms.extend(crate::model_tools::contact_terms(scenario)?);
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
     let steps = scenario
         .steps
         .iter()
-        .map(|s| engine_step(s, &set, &dof_map))
+        .map(|s| {
+            let mut step = engine_step(s, &set, &dof_map);
+            crate::model_tools::apply_to_step(&mut step, s);
+            step
+        })
         .collect();
     let curves = scenario
         .output

@@ -56,5 +56,38 @@ pub fn plot_curves(
             &curve.name,
         )?;
     }
+    for tool in &scenario.tools {
+        let Some(dir) = crate::model_tools::push_direction(scenario, &tool.name) else {
+            continue;
+        };
+        let column = |q: &str| {
+            let cols: Option<Vec<Vec<f64>>> = ["x", "y", "z"]
+                .iter()
+                .map(|c| {
+                    writer.column(&format!(
+                        "{}_{q}_{c}_{}",
+                        tool.name,
+                        if q == "force" { "nN" } else { "um" }
+                    ))
+                })
+                .collect();
+            cols.map(|c| {
+                (0..c[0].len())
+                    .map(|r| (0..3).map(|k| c[k][r] * dir[k]).sum::<f64>())
+                    .collect::<Vec<f64>>()
+            })
+        };
+        let (Some(u), Some(f)) = (column("displacement"), column("force")) else {
+            continue;
+        };
+        plot(
+            format!("{}.{extension}", tool.name),
+            &format!("{} displacement towards the body (µm)", tool.name),
+            &format!("{} force pushing the body (nN)", tool.name),
+            u,
+            f,
+            &tool.name,
+        )?;
+    }
     Ok(files)
 }

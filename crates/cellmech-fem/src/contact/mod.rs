@@ -52,6 +52,11 @@ pub struct RigidContact {
     trial: ContactState,
     committed: ContactState,
     last_step: usize,
+    /// The step whose start offset is recorded in `step_start`.
+    started_step: Option<usize>,
+    /// Pilot-point displacement where the current step started: a step may have ended early
+    /// (stop condition), so the next one moves on from there by its own program increment.
+    step_start: [f64; 3],
 }
 
 /// Why a contact could not be set up.
@@ -86,6 +91,8 @@ impl RigidContact {
     /// A tool `shape` acting on `nodes` (with reference coordinates `reference`), with
     /// penalty ε (nN/µm), penetration tolerance (µm), and the pilot-point displacement at the
     /// end of each analysis step (`program[k]`; steps past the end hold the last value).
+    /// Step k moves the tool by `program[k] - program[k-1]` from where step k-1 actually
+    /// ended (earlier than its program when a stop condition ended it).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         name: impl Into<String>,
@@ -131,6 +138,8 @@ impl RigidContact {
             trial: state.clone(),
             committed: state,
             last_step: 0,
+            started_step: None,
+            step_start: [0.0; 3],
         })
     }
 
@@ -326,8 +335,13 @@ impl Term for RigidContact {
             self.program_at(state.step_index - 1)
         };
         let end = self.program_at(state.step_index);
+        if self.started_step != Some(state.step_index) {
+            self.started_step = Some(state.step_index);
+            self.step_start = self.committed.offset;
+        }
+        let from = self.step_start;
         self.trial.offset =
-            std::array::from_fn(|i| start[i] + state.step_time * (end[i] - start[i]));
+            std::array::from_fn(|i| from[i] + state.step_time * (end[i] - start[i]));
         self.last_step = state.step_index;
     }
 

@@ -26,6 +26,9 @@ pub struct ScenarioFile {
     /// What to write.
     #[serde(default)]
     pub output: OutputSection,
+    /// Rigid tools (plates, pipettes, AFM tips, probes); see `scenario::tools`.
+    #[serde(default, rename = "tool")]
+    pub tools: Vec<super::tools::ToolSection>,
 }
 
 /// `[mesh]`: a generator (`source = "box"` or `"sphere"`) or a file (`source = "file"`).
@@ -133,6 +136,9 @@ pub struct StepSection {
     /// Forces on node sets (total over the set, split equally between its nodes).
     #[serde(default)]
     pub force: Vec<ForceSection>,
+    /// Tool motions over the step (tools not listed hold).
+    #[serde(default)]
+    pub tool: Vec<super::tools::StepToolSection>,
 }
 
 /// `[[step.fix]]`.

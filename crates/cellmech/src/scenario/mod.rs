@@ -6,6 +6,7 @@
 
 pub mod file;
 mod resolve;
+pub mod tools;
 
 use std::path::{Path, PathBuf};
 
@@ -31,6 +32,8 @@ pub struct Scenario {
     pub steps: Vec<StepSpec>,
     /// Output requests.
     pub output: OutputSpec,
+    /// Rigid tools.
+    pub tools: Vec<tools::ToolSpec>,
     /// The scenario file as parsed, for echoing into `summary.json`.
     pub echo: toml::Table,
 }
@@ -59,6 +62,8 @@ pub struct StepSpec {
     pub displacements: Vec<(String, usize, f64)>,
     /// Total forces at step end: node set, component, value (nN).
     pub forces: Vec<(String, usize, f64)>,
+    /// Tool motions over the step (tools not listed hold).
+    pub tools: Vec<tools::ToolMotion>,
 }
 
 /// Output requests.

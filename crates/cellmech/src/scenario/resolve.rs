@@ -71,6 +71,7 @@ pub fn resolve(
         .map(|(i, s)| resolve_step(&ctx, i, s, &mesh))
         .collect::<Result<Vec<_>, _>>()?;
     let output = resolve_output(&ctx, &raw.output, &mesh)?;
+    let (tools, steps) = super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?;
     Ok(Scenario {
         title: raw.title.unwrap_or_else(|| "cellmech analysis".into()),
         origin: origin.into(),
@@ -78,6 +79,7 @@ pub fn resolve(
         materials,
         steps,
         output,
+        tools,
         echo,
     })
 }
@@ -445,6 +447,7 @@ fn resolve_step(
         fixes,
         displacements,
         forces,
+        tools: Vec::new(),
     })
 }
 

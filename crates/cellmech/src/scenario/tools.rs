@@ -1,0 +1,614 @@
+//! Rigid tools in a scenario: `[[tool]]` sections (plates, micropipette disks, AFM tips,
+//! colloidal probes) and their per-step motion `[[step.tool]]`.
+//!
+//! The raw sections are read by serde (unknown keys rejected, quantities with units); the
+//! resolved [`ToolSpec`] and [`ToolMotion`] are in internal units with every default filled
+//! in. Defaults (see `docs/tools.md`):
+//!
+//! * penalty ε = [`PENALTY_FACTOR`] × G_max × h, G_max the largest shear modulus of the
+//!   model's materials and h the mean spacing of the tool's contact nodes: a surface node of
+//!   an element of size h resists with a stiffness of order G h, so ε is 50 times stiffer
+//!   than the body there (the penalty part of the penetration is ~2 % of the node's elastic
+//!   displacement, so few augmentations are needed) yet only ~10² times stiffer (the tangent
+//!   stays well conditioned). The augmented Lagrangian iterations remove the dependence of
+//!   the result on ε: the converged penetration is below the tolerance whatever ε is.
+//! * tolerance = [`TOLERANCE_FACTOR`] × the diagonal of the mesh's bounding box (5.6 nm for
+//!   the 32 µm suspended cell): far below any measured displacement, above round-off.
+//! * `until_force` tolerance = [`FORCE_TOLERANCE_FACTOR`] × G_max × diagonal², a force scale
+//!   of the whole body.
+
+use std::ops::Range;
+
+use cellmech_fem::contact::{ContactKind, ToolShape};
+use cellmech_fem::mesh::Mesh;
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::{MaterialAssignment, ScenarioError};
+use crate::units::{Force, Length, Stiffness};
+
+/// Default penalty = this × largest shear modulus × mean contact-node spacing.
+pub const PENALTY_FACTOR: f64 = 50.0;
+/// Default penetration / bond-gap tolerance = this × bounding-box diagonal.
+pub const TOLERANCE_FACTOR: f64 = 1e-4;
+/// Default `until_force` tolerance = this × largest shear modulus × diagonal².
+pub const FORCE_TOLERANCE_FACTOR: f64 = 1e-6;
+
+/// `[[tool]]`: a rigid tool acting on a node set through contact.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSection {
+    /// Unique name; prefixes the tool's `curve.csv` columns.
+    pub name: Spanned<String>,
+    /// `plate`, `disk`, `paraboloid` or `sphere`.
+    pub shape: Spanned<String>,
+    /// Plate: a point of its surface.
+    pub point: Option<Spanned<[Length; 3]>>,
+    /// Disk or sphere: centre.
+    pub center: Option<Spanned<[Length; 3]>>,
+    /// Paraboloid: apex.
+    pub apex: Option<Spanned<[Length; 3]>>,
+    /// Plate or disk: normal pointing towards the body (numbers; normalised).
+    pub normal: Option<Spanned<[f64; 3]>>,
+    /// Paraboloid: axis pointing from the tip towards the body (numbers; normalised).
+    pub axis: Option<Spanned<[f64; 3]>>,
+    /// Disk or sphere: radius.
+    pub radius: Option<Spanned<Length>>,
+    /// Paraboloid: tip radius of curvature.
+    pub tip_radius: Option<Spanned<Length>>,
+    /// `frictionless` (default) or `bonded`.
+    pub contact: Option<Spanned<String>>,
+    /// The contact candidates (e.g. `surface`, or a set selected with `[[node_set]]`).
+    pub node_set: Spanned<String>,
+    /// Penalty ε (force per length); default chosen from the model.
+    pub penalty: Option<Spanned<Stiffness>>,
+    /// Penetration / bond-gap tolerance; default 1e-4 × the model size.
+    pub tolerance: Option<Spanned<Length>>,
+}
+
+/// `[[step.tool]]`: how a tool moves during a step (tools not listed hold their position).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepToolSection {
+    /// The tool's name.
+    pub name: Spanned<String>,
+    /// Pilot-point displacement over this step (default no motion).
+    #[serde(rename = "move")]
+    pub movement: Option<Spanned<[Length; 3]>>,
+    /// End the step where the tool's force along its motion reaches this value.
+    pub until_force: Option<Spanned<Force>>,
+    /// Accepted distance from `until_force` (default from the model's force scale).
+    pub force_tolerance: Option<Spanned<Force>>,
+}
+
+/// A resolved tool in internal units (µm, nN/µm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolSpec {
+    /// Name.
+    pub name: String,
+    /// Shape in its reference position (unit normals/axes).
+    pub shape: ToolShape,
+    /// Frictionless or bonded.
+    pub kind: ContactKind,
+    /// Node set of the contact candidates (non-empty).
+    pub node_set: String,
+    /// Penalty ε (nN/µm).
+    pub penalty: f64,
+    /// Penetration / bond-gap tolerance (µm).
+    pub tolerance: f64,
+}
+
+/// A tool's motion over one step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolMotion {
+    /// Tool name (exists).
+    pub tool: String,
+    /// Pilot-point displacement over the step (µm).
+    pub movement: [f64; 3],
+    /// Stop the step where the force along the motion reaches this value.
+    pub until_force: Option<ForceTarget>,
+}
+
+/// A force target ending a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceTarget {
+    /// Target force along the motion (nN).
+    pub value: f64,
+    /// Accepted distance from it (nN, > 0).
+    pub tolerance: f64,
+}
+
+/// Messages with file, line and key.
+pub(super) struct ToolCtx<'a> {
+    /// Scenario name.
+    pub origin: &'a str,
+    /// Scenario text.
+    pub text: &'a str,
+}
+
+impl ToolCtx<'_> {
+    fn invalid(&self, span: Option<Range<usize>>, key: &str, message: String) -> ScenarioError {
+        let line = span.filter(|s| s.end > 0).map(|s| {
+            let start = s.start.min(self.text.len());
+            self.text[..start].matches('\n').count() + 1
+        });
+        ScenarioError::Invalid {
+            path: self.origin.into(),
+            line,
+            key: key.into(),
+            message,
+        }
+    }
+}
+
+fn largest_shear_modulus(materials: &[MaterialAssignment]) -> f64 {
+    materials
+        .iter()
+        .map(|m| m.law.shear_modulus)
+        .fold(0.0, f64::max)
+}
+
+fn mesh_diagonal(mesh: &Mesh) -> f64 {
+    let (lo, hi) = mesh.bounding_box();
+    (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Mean distance from a contact node to its nearest neighbour in the set (sampled over at
+/// most 400 nodes); the model diagonal for a single node.
+fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
+    if nodes.len() < 2 {
+        return mesh_diagonal(mesh);
+    }
+    let stride = nodes.len().div_ceil(400);
+    let mut total = 0.0;
+    let mut count = 0;
+    for &a in nodes.iter().step_by(stride) {
+        let pa = mesh.nodes[a];
+        let nearest = nodes
+            .iter()
+            .filter(|&&b| b != a)
+            .map(|&b| {
+                let pb = mesh.nodes[b];
+                (0..3).map(|i| (pa[i] - pb[i]).powi(2)).sum::<f64>().sqrt()
+            })
+            .filter(|&d| d > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        if nearest.is_finite() {
+            total += nearest;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        mesh_diagonal(mesh)
+    } else {
+        total / count as f64
+    }
+}
+
+/// Resolves the `[[tool]]` sections against the mesh and materials.
+pub(super) fn resolve_tools(
+    ctx: &ToolCtx,
+    sections: &[ToolSection],
+    mesh: &Mesh,
+    materials: &[MaterialAssignment],
+) -> Result<Vec<ToolSpec>, ScenarioError> {
+    let mut tools: Vec<ToolSpec> = Vec::new();
+    for (i, s) in sections.iter().enumerate() {
+        let key = |k: &str| format!("tool[{i}].{k}");
+        let name = s.name.get_ref().clone();
+        if name.is_empty() {
+            return Err(ctx.invalid(
+                Some(s.name.span()),
+                &key("name"),
+                "expected a non-empty tool name; found \"\"".into(),
+            ));
+        }
+        if tools.iter().any(|t| t.name == name) {
+            return Err(ctx.invalid(
+                Some(s.name.span()),
+                &key("name"),
+                format!("a tool named \"{name}\" is already defined; tool names must be unique"),
+            ));
+        }
+        let shape_name = s.shape.get_ref().as_str();
+        let shape_span = Some(s.shape.span());
+        // Keys that belong to each shape; any other geometry key is rejected.
+        let allowed: &[&str] = match shape_name {
+            "plate" => &["point", "normal"],
+            "disk" => &["center", "normal", "radius"],
+            "paraboloid" => &["apex", "axis", "tip_radius"],
+            "sphere" => &["center", "radius"],
+            other => {
+                return Err(ctx.invalid(
+                    shape_span,
+                    &key("shape"),
+                    format!(
+                    "expected \"plate\", \"disk\", \"paraboloid\" or \"sphere\"; found \"{other}\""
+                ),
+                ))
+            }
+        };
+        let given = [
+            ("point", s.point.as_ref().map(|v| v.span())),
+            ("center", s.center.as_ref().map(|v| v.span())),
+            ("apex", s.apex.as_ref().map(|v| v.span())),
+            ("normal", s.normal.as_ref().map(|v| v.span())),
+            ("axis", s.axis.as_ref().map(|v| v.span())),
+            ("radius", s.radius.as_ref().map(|v| v.span())),
+            ("tip_radius", s.tip_radius.as_ref().map(|v| v.span())),
+        ];
+        for (k, span) in &given {
+            if let Some(span) = span {
+                if !allowed.contains(k) {
+                    return Err(ctx.invalid(
+                        Some(span.clone()),
+                        &key(k),
+                        format!(
+                            "`{k}` does not apply to a tool with shape = \"{shape_name}\"; it takes {}",
+                            allowed.join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        let missing = |k: &str, example: &str| {
+            ctx.invalid(
+                shape_span.clone(),
+                &key(k),
+                format!("a {shape_name} tool needs `{k} = {example}`; found none"),
+            )
+        };
+        let point3 = |v: &Option<Spanned<[Length; 3]>>, k: &str| {
+            v.as_ref()
+                .map(|p| p.get_ref().map(|l| l.0))
+                .ok_or_else(|| missing(k, "[\"0 um\", \"0 um\", \"16 um\"]"))
+        };
+        let unit = |v: &Option<Spanned<[f64; 3]>>, k: &str| {
+            let v = v.as_ref().ok_or_else(|| missing(k, "[0, 0, -1]"))?;
+            let d = *v.get_ref();
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            if !(n > 0.0 && n.is_finite()) {
+                return Err(ctx.invalid(
+                    Some(v.span()),
+                    &key(k),
+                    format!("expected a non-zero direction; found {d:?}"),
+                ));
+            }
+            Ok(d.map(|x| x / n))
+        };
+        let positive = |v: &Option<Spanned<Length>>, k: &str| {
+            let v = v.as_ref().ok_or_else(|| missing(k, "\"5 um\""))?;
+            let r = v.get_ref().0;
+            if !(r > 0.0 && r.is_finite()) {
+                return Err(ctx.invalid(
+                    Some(v.span()),
+                    &key(k),
+                    format!("expected a length > 0; found {}", v.get_ref()),
+                ));
+            }
+            Ok(r)
+        };
+        let shape = match shape_name {
+            "plate" => ToolShape::Plate {
+                point: point3(&s.point, "point")?,
+                normal: unit(&s.normal, "normal")?,
+            },
+            "disk" => ToolShape::Disk {
+                center: point3(&s.center, "center")?,
+                normal: unit(&s.normal, "normal")?,
+                radius: positive(&s.radius, "radius")?,
+            },
+            "paraboloid" => ToolShape::Paraboloid {
+                apex: point3(&s.apex, "apex")?,
+                axis: unit(&s.axis, "axis")?,
+                tip_radius: positive(&s.tip_radius, "tip_radius")?,
+            },
+            _ => ToolShape::Sphere {
+                center: point3(&s.center, "center")?,
+                radius: positive(&s.radius, "radius")?,
+            },
+        };
+        let kind = match s.contact.as_ref().map(|c| (c.get_ref().as_str(), c.span())) {
+            None | Some(("frictionless", _)) => ContactKind::Frictionless,
+            Some(("bonded", _)) => ContactKind::Bonded,
+            Some((other, span)) => {
+                return Err(ctx.invalid(
+                    Some(span),
+                    &key("contact"),
+                    format!("expected \"frictionless\" or \"bonded\"; found \"{other}\""),
+                ))
+            }
+        };
+        let set_name = s.node_set.get_ref();
+        let nodes = match mesh.node_sets.get(set_name) {
+            Some(nodes) if !nodes.is_empty() => nodes,
+            Some(_) => {
+                return Err(ctx.invalid(
+                    Some(s.node_set.span()),
+                    &key("node_set"),
+                    format!("expected a node set with contact candidates; \"{set_name}\" is empty"),
+                ))
+            }
+            None => {
+                let known: Vec<&str> = mesh.node_sets.keys().map(String::as_str).collect();
+                return Err(ctx.invalid(
+                    Some(s.node_set.span()),
+                    &key("node_set"),
+                    format!("no node set \"{set_name}\" in the mesh; it has {known:?}"),
+                ));
+            }
+        };
+        let penalty = match &s.penalty {
+            Some(p) => {
+                let v = p.get_ref().0;
+                if !(v > 0.0 && v.is_finite()) {
+                    return Err(ctx.invalid(
+                        Some(p.span()),
+                        &key("penalty"),
+                        format!("expected a stiffness > 0; found {}", p.get_ref()),
+                    ));
+                }
+                v
+            }
+            None => {
+                let g = largest_shear_modulus(materials);
+                if !(g > 0.0) {
+                    return Err(ctx.invalid(
+                        Some(s.name.span()),
+                        &key("penalty"),
+                        "no material gives a shear modulus to choose the default penalty from; \
+                         give `penalty = \"1 nN/um\"`"
+                            .into(),
+                    ));
+                }
+                PENALTY_FACTOR * g * mean_spacing(mesh, nodes)
+            }
+        };
+        let tolerance = match &s.tolerance {
+            Some(t) => {
+                let v = t.get_ref().0;
+                if !(v > 0.0 && v.is_finite()) {
+                    return Err(ctx.invalid(
+                        Some(t.span()),
+                        &key("tolerance"),
+                        format!("expected a length > 0; found {}", t.get_ref()),
+                    ));
+                }
+                v
+            }
+            None => TOLERANCE_FACTOR * mesh_diagonal(mesh),
+        };
+        // Initial penetration: the body's reference shape must not start inside the tool.
+        let deepest = nodes
+            .iter()
+            .filter_map(|&n| shape.gap(&mesh.nodes[n], &[0.0; 3]))
+            .map(|g| g.value)
+            .fold(f64::INFINITY, f64::min);
+        if deepest < -10.0 * tolerance {
+            return Err(ctx.invalid(
+                Some(s.name.span()),
+                &key("name"),
+                format!(
+                    "tool \"{name}\" starts inside the body: a node of \"{set_name}\" lies {:.4} um \
+                     inside it (tolerance {tolerance:.3e} um); place the tool at or outside the surface",
+                    -deepest
+                ),
+            ));
+        }
+        tools.push(ToolSpec {
+            name,
+            shape,
+            kind,
+            node_set: set_name.clone(),
+            penalty,
+            tolerance,
+        });
+    }
+    Ok(tools)
+}
+
+/// Resolves the `[[step.tool]]` entries of step `i`.
+pub(super) fn resolve_step_tools(
+    ctx: &ToolCtx,
+    i: usize,
+    sections: &[StepToolSection],
+    tools: &[ToolSpec],
+    mesh: &Mesh,
+    materials: &[MaterialAssignment],
+) -> Result<Vec<ToolMotion>, ScenarioError> {
+    let mut out: Vec<ToolMotion> = Vec::new();
+    let mut stop_key: Option<String> = None;
+    for (j, s) in sections.iter().enumerate() {
+        let key = |k: &str| format!("step[{i}].tool[{j}].{k}");
+        let name = s.name.get_ref();
+        if !tools.iter().any(|t| &t.name == name) {
+            let known: Vec<&str> = tools.iter().map(|t| t.name.as_str()).collect();
+            return Err(ctx.invalid(
+                Some(s.name.span()),
+                &key("name"),
+                format!("no [[tool]] named \"{name}\"; the tools are {known:?}"),
+            ));
+        }
+        if out.iter().any(|m| &m.tool == name) {
+            return Err(ctx.invalid(
+                Some(s.name.span()),
+                &key("name"),
+                format!("tool \"{name}\" is listed twice in this step"),
+            ));
+        }
+        let movement = s
+            .movement
+            .as_ref()
+            .map(|m| m.get_ref().map(|l| l.0))
+            .unwrap_or([0.0; 3]);
+        let until_force = match &s.until_force {
+            None => {
+                if let Some(t) = &s.force_tolerance {
+                    return Err(ctx.invalid(
+                        Some(t.span()),
+                        &key("force_tolerance"),
+                        "`force_tolerance` applies only with `until_force`".into(),
+                    ));
+                }
+                None
+            }
+            Some(f) => {
+                if let Some(previous) = &stop_key {
+                    return Err(ctx.invalid(
+                        Some(f.span()),
+                        &key("until_force"),
+                        format!(
+                            "a step can stop on one condition only; {previous} already sets one"
+                        ),
+                    ));
+                }
+                stop_key = Some(key("until_force"));
+                if movement.iter().all(|&m| m == 0.0) {
+                    return Err(ctx.invalid(
+                        Some(f.span()),
+                        &key("until_force"),
+                        format!(
+                            "tool \"{name}\" must move to reach a force: give `move = [\"0 um\", \"0 um\", \"1 um\"]`; found no motion"
+                        ),
+                    ));
+                }
+                let tolerance = match &s.force_tolerance {
+                    Some(t) => {
+                        let v = t.get_ref().0;
+                        if !(v > 0.0 && v.is_finite()) {
+                            return Err(ctx.invalid(
+                                Some(t.span()),
+                                &key("force_tolerance"),
+                                format!("expected a force > 0; found {}", t.get_ref()),
+                            ));
+                        }
+                        v
+                    }
+                    None => {
+                        let d = mesh_diagonal(mesh);
+                        let scale = largest_shear_modulus(materials) * d * d;
+                        if scale > 0.0 {
+                            FORCE_TOLERANCE_FACTOR * scale
+                        } else {
+                            1e-6
+                        }
+                    }
+                };
+                Some(ForceTarget {
+                    value: f.get_ref().0,
+                    tolerance,
+                })
+            }
+        };
+        out.push(ToolMotion {
+            tool: name.clone(),
+            movement,
+            until_force,
+        });
+    }
+    Ok(out)
+}
+
+/// The pilot-point displacement of `tool` at the end of each step (cumulative moves).
+pub fn tool_program(tool: &str, steps: &[Vec<ToolMotion>]) -> Vec<[f64; 3]> {
+    let mut at = [0.0; 3];
+    steps
+        .iter()
+        .map(|motions| {
+            if let Some(m) = motions.iter().find(|m| m.tool == tool) {
+                for (a, d) in at.iter_mut().zip(m.movement) {
+                    *a += d;
+                }
+            }
+            at
+        })
+        .collect()
+}
+
+/// Checks, before solving, that each tool reaches the body in the first step where it
+/// moves: the smallest gap of its contact nodes (in their reference position) must not
+/// exceed the tool's travel towards the body in that step.
+pub(super) fn check_reach(
+    ctx: &ToolCtx,
+    tools: &[ToolSpec],
+    step_names: &[String],
+    motions: &[Vec<ToolMotion>],
+    raw_steps: &[Vec<StepToolSection>],
+    mesh: &Mesh,
+) -> Result<(), ScenarioError> {
+    for tool in tools {
+        let program = tool_program(&tool.name, motions);
+        let Some(k) = motions.iter().position(|ms| {
+            ms.iter()
+                .any(|m| m.tool == tool.name && m.movement.iter().any(|&d| d != 0.0))
+        }) else {
+            continue;
+        };
+        let start = if k == 0 { [0.0; 3] } else { program[k - 1] };
+        let movement: [f64; 3] = std::array::from_fn(|c| program[k][c] - start[c]);
+        let length = movement.iter().map(|d| d * d).sum::<f64>().sqrt();
+        let travel = match tool.shape.axis() {
+            Some(axis) => (0..3).map(|c| movement[c] * axis[c]).sum::<f64>(),
+            None => length,
+        };
+        let nodes = &mesh.node_sets[&tool.node_set];
+        let gap = nodes
+            .iter()
+            .filter_map(|&n| tool.shape.gap(&mesh.nodes[n], &start))
+            .map(|g| g.value)
+            .fold(f64::INFINITY, f64::min);
+        let j = motions[k]
+            .iter()
+            .position(|m| m.tool == tool.name)
+            .unwrap_or(0);
+        let span = raw_steps[k]
+            .get(j)
+            .map(|s| s.movement.as_ref().map_or(s.name.span(), |m| m.span()));
+        let key = format!("step[{k}].tool[{j}].move");
+        if gap.is_infinite() {
+            return Err(ctx.invalid(
+                span,
+                &key,
+                format!(
+                    "tool \"{}\" never touches the body in step \"{}\": no node of \"{}\" lies within its radius",
+                    tool.name, step_names[k], tool.node_set
+                ),
+            ));
+        }
+        if gap > travel + tool.tolerance {
+            return Err(ctx.invalid(
+                span,
+                &key,
+                format!(
+                    "tool \"{}\" never touches the body in step \"{}\": the smallest gap to \"{}\" is {gap:.4} um \
+                     but the tool travels {travel:.4} um towards the body; move it further or place it closer",
+                    tool.name, step_names[k], tool.node_set
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Resolves the tools of `raw` and fills in the tool motions of the resolved `steps`
+/// (called by `resolve` after the steps), then checks that every moving tool reaches the
+/// body.
+pub(super) fn resolve(
+    origin: &str,
+    text: &str,
+    raw: &super::file::ScenarioFile,
+    mesh: &Mesh,
+    materials: &[MaterialAssignment],
+    mut steps: Vec<super::StepSpec>,
+) -> Result<(Vec<ToolSpec>, Vec<super::StepSpec>), ScenarioError> {
+    let ctx = ToolCtx { origin, text };
+    let tools = resolve_tools(&ctx, &raw.tools, mesh, materials)?;
+    for (i, (spec, section)) in steps.iter_mut().zip(&raw.steps).enumerate() {
+        spec.tools = resolve_step_tools(&ctx, i, &section.tool, &tools, mesh, materials)?;
+    }
+    let names: Vec<String> = steps.iter().map(|s| s.name.clone()).collect();
+    let motions: Vec<Vec<ToolMotion>> = steps.iter().map(|s| s.tools.clone()).collect();
+    let raw_steps: Vec<Vec<StepToolSection>> = raw.steps.iter().map(|s| s.tool.clone()).collect();
+    check_reach(&ctx, &tools, &names, &motions, &raw_steps, mesh)?;
+    Ok((tools, steps))
+}
