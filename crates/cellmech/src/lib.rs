@@ -10,6 +10,7 @@ pub mod cell;
 pub mod examples;
 pub mod mesh_file;
 pub mod model;
+pub mod model_structures;
 pub mod output;
 pub mod plots;
 pub mod run;

@@ -6,7 +6,7 @@ use std::path::Path;
 use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::NeoHookean;
 use cellmech_fem::mesh::generate::{box_mesh, sphere_mesh, SphereMeshSpec};
-use cellmech_fem::mesh::Mesh;
+use cellmech_fem::mesh::{ElementKind, Mesh};
 use cellmech_fem::solve::{Convergence, StepControl};
 use toml::Spanned;
 
@@ -57,6 +57,14 @@ pub fn resolve(
         select_node_set(&ctx, section, &mut mesh)?;
     }
     let materials = resolve_materials(&ctx, &raw.materials, &mesh)?;
+    let structures = super::structures::resolve_structures(
+        &raw.filaments,
+        &raw.membranes,
+        &raw.families,
+        &mesh,
+        text,
+        origin,
+    )?;
     if raw.steps.is_empty() {
         return Err(ctx.invalid(
             None,
@@ -76,6 +84,7 @@ pub fn resolve(
         origin: origin.into(),
         mesh,
         materials,
+        structures,
         steps,
         output,
         echo,
@@ -243,7 +252,14 @@ fn resolve_materials(
             formulation,
         });
     }
-    for block in &mesh.blocks {
+    // Line and surface sets (filaments, membranes) take no continuum material.
+    let volume = |b: &&cellmech_fem::mesh::ElementBlock| {
+        !matches!(
+            b.kind,
+            ElementKind::Line2 | ElementKind::Quad4 | ElementKind::Tri3
+        )
+    };
+    for block in mesh.blocks.iter().filter(volume) {
         if !out.iter().any(|m| m.element_set == block.name) {
             return Err(ctx.invalid(
                 None,
