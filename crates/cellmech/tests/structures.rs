@@ -721,3 +721,29 @@ impl cellmech_fem::solve::Observer for Counter {
         self.0 += 1;
     }
 }
+
+/// The shipped tutorial runs in seconds and shows the prestressed equilibrium.
+#[test]
+fn structures_prestressed_sphere_example_reaches_its_equilibrium() {
+    let example = cellmech::examples::find("prestressed-sphere").unwrap();
+    let s = cellmech::examples::scenario(example).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.structures.filaments[0].pairs.len(), 24);
+    let start = std::time::Instant::now();
+    let problem = solve(&s);
+    let elapsed = start.elapsed().as_secs_f64();
+    let n0 = 34.0 * std::f64::consts::PI * 0.25f64.powi(2) / 4.0 * 0.24;
+    let max = scalar(&problem, "bundle_axial_force_max_nN").unwrap();
+    let min = scalar(&problem, "bundle_axial_force_min_nN").unwrap();
+    assert!(min > 0.0 && max < n0, "{min} {max} vs N0 {n0}");
+    let map = problem.dof_map();
+    let mut largest: f64 = 0.0;
+    for (set, comps) in [("a", 0..3), ("b", 1..3), ("c", 2..3)] {
+        let node = s.mesh.node_sets[set][0];
+        for c in comps {
+            largest = largest.max(problem.reaction(map.dof(node, c)).abs());
+        }
+    }
+    assert!(largest < 1e-6 * n0, "support reaction {largest:e}");
+    println!("example: N0 {n0:.4} nN, cables {min:.4}..{max:.4} nN, {elapsed:.2} s");
+    assert!(elapsed < 30.0, "{elapsed} s");
+}
