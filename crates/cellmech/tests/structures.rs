@@ -683,8 +683,38 @@ youngs_modulus = "20 kPa"
 diameter = "0.1 um"
 {CAPS}"#
     ));
+    // The same count of short cables: each between a random surface node and a random
+    // surface node within 4 µm (local couplings, like a cortical network).
+    let nodes = &base.mesh.nodes;
+    let mut local = Vec::new();
+    while local.len() < 2000 {
+        let a = surface[next(surface.len())];
+        let near: Vec<usize> = surface
+            .iter()
+            .copied()
+            .filter(|&b| b != a && norm(std::array::from_fn(|k| nodes[a][k] - nodes[b][k])) < 4.0)
+            .collect();
+        if !near.is_empty() {
+            local.push([a, near[next(near.len())]]);
+        }
+    }
+    let with_local = scenario(&format!(
+        r#"{sphere}
+[[filament]]
+name = "local"
+family = "actin"
+element = "truss"
+node_pairs = {local:?}
+youngs_modulus = "20 kPa"
+diameter = "0.1 um"
+{CAPS}"#
+    ));
     let mut report = Vec::new();
-    for (label, s) in [("continuum", &base), ("continuum + 2000 trusses", &with)] {
+    for (label, s) in [
+        ("continuum", &base),
+        ("continuum + 2000 random chords", &with),
+        ("continuum + 2000 local cables", &with_local),
+    ] {
         let mut model = build(s).unwrap();
         let mut counter = Counter(0);
         let start = std::time::Instant::now();
@@ -708,7 +738,11 @@ diameter = "0.1 um"
         );
         report.push(t / counter.0 as f64);
     }
-    println!("ratio {:.3}", report[1] / report[0]);
+    println!(
+        "ratio random {:.3}, local {:.3}",
+        report[1] / report[0],
+        report[2] / report[0]
+    );
 }
 
 fn norm(v: [f64; 3]) -> f64 {
@@ -731,7 +765,7 @@ fn structures_prestressed_sphere_example_reaches_its_equilibrium() {
     let start = std::time::Instant::now();
     let problem = solve(&s);
     let elapsed = start.elapsed().as_secs_f64();
-    let n0 = 34.0 * std::f64::consts::PI * 0.25f64.powi(2) / 4.0 * 0.24;
+    let n0 = 340.0 * std::f64::consts::PI * 0.25f64.powi(2) / 4.0 * 0.24;
     let max = scalar(&problem, "bundle_axial_force_max_nN").unwrap();
     let min = scalar(&problem, "bundle_axial_force_min_nN").unwrap();
     assert!(min > 0.0 && max < n0, "{min} {max} vs N0 {n0}");

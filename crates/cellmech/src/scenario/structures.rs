@@ -505,9 +505,11 @@ fn filament_pairs(
             pairs.push(ends);
         }
         (pairs, points.span(), "points")
-    } else {
-        let np = s.node_pairs.as_ref().expect("exactly one source is given");
+    } else if let Some(np) = &s.node_pairs {
         (np.get_ref().clone(), np.span(), "node_pairs")
+    } else {
+        // Unreachable: exactly one source was checked above.
+        (Vec::new(), s.name.span(), "node_pairs")
     };
     if pairs.is_empty() {
         return Err(ctx.invalid(
