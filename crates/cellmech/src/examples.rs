@@ -23,6 +23,11 @@ pub const EXAMPLES: &[Example] = &[
         text: include_str!("../../../examples/sphere-compression.toml"),
     },
     Example {
+        name: "prestressed-sphere",
+        summary: "prestressed tension-only cable network finding its equilibrium in a soft sphere",
+        text: include_str!("../../../examples/prestressed-sphere.toml"),
+    },
+    Example {
         name: "block-uniaxial",
         summary: "neo-Hookean block stretched to twice its length (closed-form check)",
         text: include_str!("../../../examples/block-uniaxial.toml"),

@@ -11,6 +11,7 @@ pub mod cell;
 pub mod examples;
 pub mod mesh_file;
 pub mod model;
+pub mod model_structures;
 pub mod model_tools;
 pub mod output;
 pub mod plots;

@@ -37,8 +37,11 @@ pub enum BuildError {
     /// A continuum block is unsupported or has a bad element.
     #[error(transparent)]
     Continuum(#[from] cellmech_fem::continuum::ContinuumBlockError),
+    /// A filament or membrane set was rejected.
+    #[error(transparent)]
+    Structures(#[from] crate::model_structures::StructureBuildError),
     /// A rigid tool could not be set up.
-    #[error("{0}")]
+    #[error(transparent)]
     Contact(#[from] cellmech_fem::contact::ContactError),
     /// The engine rejected the problem.
     #[error(transparent)]
@@ -48,7 +51,11 @@ pub enum BuildError {
 /// Builds the engine problem for `scenario`.
 pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
     let mesh = &scenario.mesh;
-    let dof_map = DofMap::translational(mesh.num_nodes());
+    let structures = &scenario.structures;
+    let dof_map = DofMap::with_counts(&crate::model_structures::dofs_per_node(
+        mesh.num_nodes(),
+        structures,
+    ));
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
     for assignment in &scenario.materials {
         // resolve() guarantees the block exists.
@@ -62,6 +69,9 @@ pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
         }
     }
     terms.extend(crate::model_tools::contact_terms(scenario)?);
+    terms.extend(crate::model_structures::structure_terms(
+        mesh, structures, &dof_map,
+    )?);
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
     let steps = scenario
         .steps

@@ -476,6 +476,52 @@ impl Term for TrussSet {
             fields,
         }))
     }
+
+    /// Family statistics as curve columns, prefixed with the family name:
+    /// `<family>_axial_force_{min,max,mean}_nN`, `_axial_stress_max_kPa`, `_axial_strain_max`
+    /// (strain relative to the stress-free length, the measure for slack IFs) and
+    /// `_in_tension` (count). Nothing for a disabled set; zeros for an empty one.
+    fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
+        if !self.enabled {
+            return Vec::new();
+        }
+        let mut force = ValueRange {
+            min: 0.0,
+            max: 0.0,
+            mean: 0.0,
+        };
+        let (mut stress_max, mut strain_max, mut in_tension) = (0.0, 0.0, 0usize);
+        let mut responses = Vec::with_capacity(self.nodes.len());
+        for e in 0..self.nodes.len() {
+            // A kernel error (zero current length) shows as NaN rather than a missing column.
+            responses.push(self.element_response(e, u, dof_map).map(|(r, _)| r).ok());
+        }
+        if !responses.is_empty() {
+            let forces: Vec<f64> = responses
+                .iter()
+                .map(|r| r.map_or(f64::NAN, |r| r.force))
+                .collect();
+            force = value_range(&forces).unwrap_or(force);
+            stress_max = responses
+                .iter()
+                .map(|r| r.map_or(f64::NAN, |r| r.stress))
+                .fold(f64::NEG_INFINITY, f64::max);
+            strain_max = responses
+                .iter()
+                .map(|r| r.map_or(f64::NAN, |r| r.strain))
+                .fold(f64::NEG_INFINITY, f64::max);
+            in_tension = forces.iter().filter(|&&f| f > 0.0).count();
+        }
+        let f = &self.family;
+        vec![
+            (format!("{f}_axial_force_min_nN"), force.min),
+            (format!("{f}_axial_force_max_nN"), force.max),
+            (format!("{f}_axial_force_mean_nN"), force.mean),
+            (format!("{f}_axial_stress_max_kPa"), stress_max),
+            (format!("{f}_axial_strain_max"), strain_max),
+            (format!("{f}_in_tension"), in_tension as f64),
+        ]
+    }
 }
 
 #[cfg(test)]
@@ -752,7 +798,26 @@ mod tests {
         assert_eq!(f.max, forces[0]);
         assert_eq!(f.min, 0.0);
         assert!((f.mean - forces.iter().sum::<f64>() / 4.0).abs() < 1e-14);
+        let columns = set.scalar_outputs(&u, &map);
+        let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "actin_axial_force_min_nN",
+                "actin_axial_force_max_nN",
+                "actin_axial_force_mean_nN",
+                "actin_axial_stress_max_kPa",
+                "actin_axial_strain_max",
+                "actin_in_tension"
+            ]
+        );
+        let values: Vec<f64> = columns.iter().map(|(_, v)| *v).collect();
+        assert_eq!(values[..3], [f.min, f.max, f.mean]);
+        assert!((values[3] - 1.5e3 * e0).abs() < 1e-9);
+        assert!((values[4] - e0).abs() < 1e-15);
+        assert_eq!(values[5], 3.0);
         set.set_enabled(false);
+        assert!(set.scalar_outputs(&u, &map).is_empty());
         assert_eq!(set.num_elements(), 0);
         assert_eq!(set.outputs(&u, &map).unwrap(), None);
         let empty = TrussSet::new("none", "bundle", &x, vec![], law).unwrap();

@@ -20,6 +20,15 @@ pub struct ScenarioFile {
     /// Material of each element set.
     #[serde(default, rename = "material")]
     pub materials: Vec<MaterialSection>,
+    /// Discrete filaments (trusses or beams), see `docs/structures.md`.
+    #[serde(default, rename = "filament")]
+    pub filaments: Vec<super::structures::FilamentSection>,
+    /// Membrane layers on surfaces of the continuum.
+    #[serde(default, rename = "membrane")]
+    pub membranes: Vec<super::structures::MembraneSection>,
+    /// Study switches per family (`[families.actin]`).
+    #[serde(default)]
+    pub families: std::collections::BTreeMap<String, Spanned<super::structures::FamilySection>>,
     /// Analysis steps, run in order.
     #[serde(default, rename = "step")]
     pub steps: Vec<StepSection>,

@@ -6,6 +6,7 @@
 
 pub mod file;
 mod resolve;
+pub mod structures;
 pub mod tools;
 
 use std::path::{Path, PathBuf};
@@ -28,6 +29,8 @@ pub struct Scenario {
     pub mesh: Mesh,
     /// Material of every element set, in mesh block order.
     pub materials: Vec<MaterialAssignment>,
+    /// Filaments, membranes and family switches (see [`structures`]).
+    pub structures: structures::StructuresSpec,
     /// Analysis steps in order.
     pub steps: Vec<StepSpec>,
     /// Output requests.

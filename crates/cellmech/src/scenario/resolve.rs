@@ -57,6 +57,14 @@ pub fn resolve(
         select_node_set(&ctx, section, &mut mesh)?;
     }
     let materials = resolve_materials(&ctx, &raw.materials, &mesh)?;
+    let structures = super::structures::resolve_structures(
+        &raw.filaments,
+        &raw.membranes,
+        &raw.families,
+        &mesh,
+        text,
+        origin,
+    )?;
     if raw.steps.is_empty() {
         return Err(ctx.invalid(
             None,
@@ -77,6 +85,7 @@ pub fn resolve(
         origin: origin.into(),
         mesh,
         materials,
+        structures,
         steps,
         output,
         tools,

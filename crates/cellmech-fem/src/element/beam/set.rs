@@ -304,4 +304,50 @@ impl Term for BeamSet {
             ],
         }))
     }
+
+    /// Family statistics as curve columns, prefixed with the family name:
+    /// `<family>_axial_force_{min,max,mean}_nN`, `_axial_stress_max_kPa`,
+    /// `_bending_moment_max_nN_um`, `_in_tension` and `_in_compression` (counts). Nothing for
+    /// a disabled set; NaN values if an element cannot be evaluated.
+    fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
+        if !self.enabled {
+            return Vec::new();
+        }
+        let f = &self.family;
+        let names = [
+            "axial_force_min_nN",
+            "axial_force_max_nN",
+            "axial_force_mean_nN",
+            "axial_stress_max_kPa",
+            "bending_moment_max_nN_um",
+            "in_tension",
+            "in_compression",
+        ];
+        let values = match (
+            self.force_statistics(u, dof_map),
+            self.element_results(u, dof_map),
+        ) {
+            (Ok(s), Ok(results)) => {
+                let moment = results
+                    .iter()
+                    .map(|r| r.bending_moment[0].max(r.bending_moment[1]))
+                    .fold(0.0, f64::max);
+                [
+                    s.min,
+                    s.max,
+                    s.mean,
+                    s.max / self.section.area,
+                    moment,
+                    s.tension as f64,
+                    s.compression as f64,
+                ]
+            }
+            _ => [f64::NAN; 7],
+        };
+        names
+            .iter()
+            .zip(values)
+            .map(|(n, v)| (format!("{f}_{n}"), v))
+            .collect()
+    }
 }

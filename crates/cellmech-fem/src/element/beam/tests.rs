@@ -308,3 +308,40 @@ fn beam_evaluation_time_is_measured() {
         per * 1e6
     );
 }
+
+#[test]
+fn beam_set_scalar_outputs_report_the_family_statistics() {
+    use crate::dof::DofMap;
+    use crate::term::Term;
+    // Two collinear elements along x of a microtubule section: stretch the first by 1 %,
+    // compress the second by 0.5 %.
+    let x = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]];
+    let section = mt();
+    let mut set =
+        BeamSet::from_coordinates("mts", "microtubule", &x, &[[0, 1], [1, 2]], None, section)
+            .unwrap();
+    set.local_strain = LocalStrain::Chord;
+    let map = DofMap::with_counts(&[6, 6, 6]);
+    let mut u = vec![0.0; 18];
+    u[map.dof(1, 0)] = 0.02;
+    u[map.dof(2, 0)] = 0.02 - 0.01;
+    let columns = set.scalar_outputs(&u, &map);
+    let get = |name: &str| {
+        columns
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("no column {name} in {columns:?}"))
+            .1
+    };
+    let ea = section.axial_stiffness();
+    assert!((get("microtubule_axial_force_max_nN") - 0.01 * ea).abs() < 1e-9 * ea);
+    assert!((get("microtubule_axial_force_min_nN") + 0.005 * ea).abs() < 1e-9 * ea);
+    assert!((get("microtubule_axial_force_mean_nN") - 0.0025 * ea).abs() < 1e-9 * ea);
+    let stress = get("microtubule_axial_stress_max_kPa");
+    assert!((stress - 0.01 * section.youngs_modulus).abs() < 1e-6 * section.youngs_modulus);
+    assert_eq!(get("microtubule_in_tension"), 1.0);
+    assert_eq!(get("microtubule_in_compression"), 1.0);
+    assert!(get("microtubule_bending_moment_max_nN_um").abs() < 1e-12);
+    set.enabled = false;
+    assert!(set.scalar_outputs(&u, &map).is_empty());
+}

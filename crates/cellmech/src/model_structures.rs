@@ -1,0 +1,111 @@
+//! Engine terms for the structures of a scenario: filament families as truss or beam sets,
+//! membrane layers as membrane sets, and the DOF counts they need (6 at beam nodes).
+//!
+//! One engine set per family: all enabled truss groups of a family become one
+//! [`TrussSet`] (one law per element), all beam groups of a family one [`BeamSet`], both
+//! named after the family so that their curve columns are `<family>_...`. Disabled groups
+//! are not built at all: DOFs that only they touched (interior filament nodes, beam
+//! rotations) are held automatically by the engine.
+
+use cellmech_fem::dof::DofMap;
+use cellmech_fem::element::beam::{BeamError, BeamSet};
+use cellmech_fem::element::membrane::{MembraneError, MembraneSet};
+use cellmech_fem::element::truss::{TrussError, TrussSet};
+use cellmech_fem::mesh::{ElementKind, Mesh};
+use cellmech_fem::term::Term;
+
+use crate::scenario::structures::{FilamentElement, StructuresSpec};
+
+/// Why the structures could not be turned into engine terms.
+#[derive(Debug, thiserror::Error)]
+pub enum StructureBuildError {
+    /// A truss set was rejected.
+    #[error("filaments: {0}")]
+    Truss(#[from] TrussError),
+    /// A beam set was rejected.
+    #[error("filaments: {0}")]
+    Beam(#[from] BeamError),
+    /// A membrane set was rejected.
+    #[error("membrane: {0}")]
+    Membrane(#[from] MembraneError),
+}
+
+/// DOFs per node: 6 at every node of an enabled beam group, 3 elsewhere (input for
+/// [`DofMap::with_counts`]).
+pub fn dofs_per_node(num_nodes: usize, spec: &StructuresSpec) -> Vec<usize> {
+    let mut counts = vec![3; num_nodes];
+    for f in spec.filaments.iter().filter(|f| f.enabled) {
+        if let FilamentElement::Beam(_) = f.element {
+            for &[a, b] in &f.pairs {
+                for n in [a, b] {
+                    if let Some(c) = counts.get_mut(n) {
+                        *c = 6;
+                    }
+                }
+            }
+        }
+    }
+    counts
+}
+
+/// The family names of the enabled groups, in order of first appearance.
+fn families(spec: &StructuresSpec) -> Vec<&str> {
+    let mut names: Vec<&str> = Vec::new();
+    for f in spec.filaments.iter().filter(|f| f.enabled) {
+        if !names.contains(&f.family.as_str()) {
+            names.push(&f.family);
+        }
+    }
+    names
+}
+
+/// Engine terms for every enabled filament family and membrane layer. `dof_map` must come
+/// from [`dofs_per_node`] (beam nodes are checked).
+pub fn structure_terms(
+    mesh: &Mesh,
+    spec: &StructuresSpec,
+    dof_map: &DofMap,
+) -> Result<Vec<Box<dyn Term>>, StructureBuildError> {
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    for family in families(spec) {
+        let groups = spec
+            .filaments
+            .iter()
+            .filter(|f| f.enabled && f.family == family);
+        let mut pairs = Vec::new();
+        let mut laws = Vec::new();
+        let mut section = None;
+        for g in groups {
+            pairs.extend_from_slice(&g.pairs);
+            match g.element {
+                FilamentElement::Truss(law) => laws.extend(std::iter::repeat_n(law, g.pairs.len())),
+                // resolve() guarantees one section per beam family.
+                FilamentElement::Beam(s) => section = Some(s),
+            }
+        }
+        match section {
+            Some(section) => {
+                let set =
+                    BeamSet::from_coordinates(family, family, &mesh.nodes, &pairs, None, section)?;
+                set.check_dof_map(dof_map)?;
+                terms.push(Box::new(set));
+            }
+            None => {
+                let set = TrussSet::with_element_laws(family, family, &mesh.nodes, pairs, laws)?;
+                terms.push(Box::new(set));
+            }
+        }
+    }
+    for m in spec.membranes.iter().filter(|m| m.enabled) {
+        let set = MembraneSet::new(
+            m.name.clone(),
+            ElementKind::Quad4,
+            m.faces.iter().flatten().copied().collect(),
+            &mesh.nodes,
+            m.shear_modulus,
+            m.thickness,
+        )?;
+        terms.push(Box::new(set));
+    }
+    Ok(terms)
+}
