@@ -194,6 +194,15 @@ impl Problem {
                 .as_ref()
                 .and_then(|s| p.monitor(&s.monitor).map(|v| v - s.target))
         };
+        // Terms see the new step before anything is monitored (e.g. a tool's direction of
+        // motion in this step).
+        let step_start = LoadState {
+            step_index,
+            step_time: 0.0,
+        };
+        for term in &mut self.terms {
+            term.set_load_state(&step_start);
+        }
         let mut g_prev = gap(self);
         let mut beyond: Option<(f64, f64)> = None;
         let mut overshoots = 0;
