@@ -5,66 +5,11 @@
 
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::element::beam::{BeamSection, BeamSet, LocalStrain};
-use cellmech_fem::linsolve::{
-    FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern,
-};
+use cellmech_fem::linsolve::DenseSolver;
 use cellmech_fem::math::rotation::exp_so3;
 use cellmech_fem::solve::{Motion, NodalLoad, NullObserver, Problem, Step, StepControl};
 use cellmech_fem::term::Term;
-use nalgebra::{DMatrix, DVector};
 use std::f64::consts::PI;
-
-/// Dense reference solver: LU solve, and the inertia (number of negative eigenvalues) of
-/// the symmetric tangent from a symmetric eigen-decomposition.
-#[derive(Default)]
-struct DenseSolver {
-    pattern: Option<SparsityPattern>,
-    lu: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
-}
-
-impl LinearSolver for DenseSolver {
-    fn analyze(&mut self, pattern: &SparsityPattern) -> Result<(), LinSolveError> {
-        self.pattern = Some(pattern.clone());
-        Ok(())
-    }
-
-    fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError> {
-        let p = self
-            .pattern
-            .as_ref()
-            .ok_or(LinSolveError::Usage("not analysed".into()))?;
-        let mut a = DMatrix::zeros(p.n, p.n);
-        for c in 0..p.n {
-            for k in p.col_ptr[c]..p.col_ptr[c + 1] {
-                a[(p.row_idx[k], c)] = values[k];
-                a[(c, p.row_idx[k])] = values[k];
-            }
-        }
-        let negative = a
-            .clone()
-            .symmetric_eigenvalues()
-            .iter()
-            .filter(|&&l| l < 0.0)
-            .count();
-        self.lu = Some(a.lu());
-        Ok(FactorInfo {
-            method: FactorMethod::Lu,
-            negative_pivots: Some(negative),
-        })
-    }
-
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        let lu = self
-            .lu
-            .as_ref()
-            .ok_or(LinSolveError::Usage("not factorised".into()))?;
-        let x = lu
-            .solve(&DVector::from_column_slice(rhs))
-            .ok_or(LinSolveError::Singular("dense LU".into()))?;
-        rhs.copy_from_slice(x.as_slice());
-        Ok(())
-    }
-}
 
 /// A model of beams on `coords` (all nodes with 6 DOFs).
 fn model(coords: &[[f64; 3]], pairs: &[[usize; 2]], section: BeamSection) -> Problem {

@@ -1,14 +1,18 @@
 //! A dense reference solver.
 
+use nalgebra::{DMatrix, DVector, Dyn, LU};
+
 use super::{FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern};
 
-/// Dense LU with partial pivoting: an independent reference solver for small systems and
-/// tests (O(n³) time, O(n²) memory; use the sparse solver for real models).
+/// Dense LU with partial pivoting (nalgebra): an independent reference solver for small
+/// systems and tests (O(n³) time, O(n²) memory; use the sparse solver for real models).
+/// It also reports the inertia of the symmetric matrix (number of negative eigenvalues,
+/// from a symmetric eigen-decomposition), which buckling tests use to detect the loss of
+/// stability.
 #[derive(Debug, Default, Clone)]
 pub struct DenseSolver {
     pattern: Option<SparsityPattern>,
-    lu: Vec<f64>,
-    pivots: Vec<usize>,
+    lu: Option<LU<f64, Dyn, Dyn>>,
 }
 
 impl LinearSolver for DenseSolver {
@@ -22,59 +26,39 @@ impl LinearSolver for DenseSolver {
             .pattern
             .as_ref()
             .ok_or(LinSolveError::Usage("not analysed".into()))?;
-        let n = p.n;
-        self.lu = vec![0.0; n * n];
-        for c in 0..n {
+        let mut a = DMatrix::zeros(p.n, p.n);
+        for c in 0..p.n {
             for k in p.col_ptr[c]..p.col_ptr[c + 1] {
-                let r = p.row_idx[k];
-                self.lu[r * n + c] = values[k];
-                self.lu[c * n + r] = values[k];
+                a[(p.row_idx[k], c)] = values[k];
+                a[(c, p.row_idx[k])] = values[k];
             }
         }
-        self.pivots = (0..n).collect();
-        for k in 0..n {
-            let (piv, max) = (k..n)
-                .map(|i| (i, self.lu[i * n + k].abs()))
-                .fold((k, -1.0), |a, b| if b.1 > a.1 { b } else { a });
-            if max == 0.0 {
-                return Err(LinSolveError::Singular(format!("zero pivot in column {k}")));
-            }
-            if piv != k {
-                for j in 0..n {
-                    self.lu.swap(k * n + j, piv * n + j);
-                }
-                self.pivots.swap(k, piv);
-            }
-            for i in k + 1..n {
-                let f = self.lu[i * n + k] / self.lu[k * n + k];
-                self.lu[i * n + k] = f;
-                for j in k + 1..n {
-                    self.lu[i * n + j] -= f * self.lu[k * n + j];
-                }
-            }
+        let negative = a
+            .clone()
+            .symmetric_eigenvalues()
+            .iter()
+            .filter(|&&l| l < 0.0)
+            .count();
+        let lu = a.lu();
+        if !lu.is_invertible() {
+            return Err(LinSolveError::Singular("dense LU: zero pivot".into()));
         }
+        self.lu = Some(lu);
         Ok(FactorInfo {
             method: FactorMethod::Lu,
-            negative_pivots: None,
+            negative_pivots: Some(negative),
         })
     }
 
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        let n = rhs.len();
-        let b: Vec<f64> = self.pivots.iter().map(|&p| rhs[p]).collect();
-        let mut y = b;
-        for i in 0..n {
-            for j in 0..i {
-                y[i] -= self.lu[i * n + j] * y[j];
-            }
-        }
-        for i in (0..n).rev() {
-            for j in i + 1..n {
-                y[i] -= self.lu[i * n + j] * y[j];
-            }
-            y[i] /= self.lu[i * n + i];
-        }
-        rhs.copy_from_slice(&y);
+        let lu = self
+            .lu
+            .as_ref()
+            .ok_or(LinSolveError::Usage("not factorised".into()))?;
+        let x = lu
+            .solve(&DVector::from_column_slice(rhs))
+            .ok_or(LinSolveError::Singular("dense LU".into()))?;
+        rhs.copy_from_slice(x.as_slice());
         Ok(())
     }
 }

@@ -68,17 +68,7 @@ pub fn hex_elasticity(nx: usize, ny: usize, nz: usize, young: f64, poisson: f64)
     TestMatrix { pattern, values }
 }
 
-/// Reference coordinates of the 8 corners of the hex8 element.
-const CORNERS: [[f64; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
+use crate::mesh::surface::HEX8_CORNERS as CORNERS;
 
 /// 24x24 stiffness of a unit cube hex8 (DOF order: node-major, x/y/z within a node).
 fn hex8_unit_stiffness(young: f64, poisson: f64) -> [[f64; 24]; 24] {

@@ -12,6 +12,18 @@ use std::collections::HashMap;
 
 use super::{ElementBlock, ElementKind, Mesh};
 
+/// Natural coordinates of the eight hex8 corners (Abaqus/Gmsh node order).
+pub const HEX8_CORNERS: [[f64; 3]; 8] = [
+    [-1.0, -1.0, -1.0],
+    [1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [-1.0, 1.0, 1.0],
+];
+
 /// Local node lists of the six faces of a hex8, outward for a positively oriented element.
 pub const HEX8_FACES: [[usize; 4]; 6] = [
     [0, 3, 2, 1],

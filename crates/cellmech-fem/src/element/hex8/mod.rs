@@ -53,16 +53,7 @@ pub enum Hex8Formulation {
 }
 
 /// Natural coordinates of the 8 nodes (Abaqus/Gmsh order).
-pub const NODE_NATURAL: [[f64; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
+pub use crate::mesh::surface::HEX8_CORNERS as NODE_NATURAL;
 
 /// Precomputed reference data of one element: ∇₀N_a = ∂N_a/∂X at the 8 Gauss points,
 /// the weights w·det J₀ (µm³) and the reference volume V₀ (µm³).

@@ -6,28 +6,7 @@ use std::collections::HashMap;
 
 use crate::mesh::{ElementKind, Mesh};
 
-/// Natural coordinates of the eight hex8 corners in Abaqus order.
-pub const HEX8_CORNERS: [[f64; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
-
-/// The six faces of a hex8 as local node indices, each ordered counter-clockwise seen from
-/// outside (outward normal by the right-hand rule).
-pub const HEX8_FACES: [[usize; 4]; 6] = [
-    [0, 3, 2, 1],
-    [4, 5, 6, 7],
-    [0, 1, 5, 4],
-    [1, 2, 6, 5],
-    [2, 3, 7, 6],
-    [3, 0, 4, 7],
-];
+pub use crate::mesh::surface::{HEX8_CORNERS, HEX8_FACES};
 
 /// The twelve edges of a hex8 as local node pairs.
 pub const HEX8_EDGES: [[usize; 2]; 12] = [
