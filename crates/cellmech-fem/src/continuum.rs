@@ -170,4 +170,33 @@ impl Term for ContinuumBlock {
             ],
         }))
     }
+
+    /// `<block>_max_principal_log_strain` and `<block>_max_von_mises_kPa`: the largest
+    /// element values over the block (the element value is the volume average of the
+    /// element's state; see `hex8_response`). NaN when an element cannot be evaluated.
+    fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
+        let (mut strain, mut mises) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        let mut failed = false;
+        for e in 0..self.connectivity.len() {
+            match hex8_response(
+                &self.references[e],
+                &self.material,
+                self.formulation,
+                &self.gather(e, u, dof_map),
+            ) {
+                Ok(r) => {
+                    strain = strain.max(r.max_principal_log_strain);
+                    mises = mises.max(r.von_mises);
+                }
+                Err(_) => failed = true,
+            }
+        }
+        if failed {
+            (strain, mises) = (f64::NAN, f64::NAN);
+        }
+        vec![
+            (format!("{}_max_principal_log_strain", self.name), strain),
+            (format!("{}_max_von_mises_kPa", self.name), mises),
+        ]
+    }
 }

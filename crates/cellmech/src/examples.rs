@@ -18,8 +18,18 @@ pub struct Example {
 /// Every shipped example.
 pub const EXAMPLES: &[Example] = &[
     Example {
+        name: "suspended-tension",
+        summary: "suspended bendo-tensegrity cell pulled by micropipettes to 6.3 um (default)",
+        text: include_str!("../../../examples/suspended-tension.toml"),
+    },
+    Example {
+        name: "suspended-compression",
+        summary: "suspended bendo-tensegrity cell between microplates to 10, 30 and 50 %",
+        text: include_str!("../../../examples/suspended-compression.toml"),
+    },
+    Example {
         name: "sphere-compression",
-        summary: "soft neo-Hookean sphere squeezed by its polar caps to 30 % (default)",
+        summary: "soft neo-Hookean sphere squeezed by its polar caps to 30 %",
         text: include_str!("../../../examples/sphere-compression.toml"),
     },
     Example {
@@ -55,7 +65,7 @@ pub const EXAMPLES: &[Example] = &[
 ];
 
 /// The example run by `cellmech run` without a scenario.
-pub const DEFAULT_EXAMPLE: &str = "sphere-compression";
+pub const DEFAULT_EXAMPLE: &str = "suspended-tension";
 
 /// The example with this name.
 pub fn find(name: &str) -> Option<&'static Example> {

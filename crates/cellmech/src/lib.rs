@@ -8,6 +8,7 @@
 
 pub mod bench;
 pub mod cell;
+pub mod cell_report;
 pub mod examples;
 pub mod mesh_file;
 pub mod model;

@@ -21,6 +21,56 @@ pub struct CurveDofs {
     pub sign: f64,
 }
 
+/// The shape of a node set along a test axis, reported per converged increment: its
+/// extent along `axis`, its mean extent across it, and their ratio (columns
+/// `<name>_length_axial_um`, `<name>_length_transverse_um`, `<name>_aspect_ratio`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShapeProbe {
+    /// Column prefix.
+    pub name: String,
+    /// Nodes whose current positions are measured.
+    pub nodes: Vec<usize>,
+    /// Test axis (0, 1, 2).
+    pub axis: usize,
+}
+
+impl ShapeProbe {
+    /// Column names.
+    pub fn columns(&self) -> [String; 3] {
+        [
+            format!("{}_length_axial_um", self.name),
+            format!("{}_length_transverse_um", self.name),
+            format!("{}_aspect_ratio", self.name),
+        ]
+    }
+
+    /// Axial extent, mean transverse extent and aspect ratio in the current configuration
+    /// `X + u` (NaN for an empty node set).
+    pub fn measure(&self, reference: &[[f64; 3]], problem: &Problem) -> [f64; 3] {
+        let map = problem.dof_map();
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for &n in &self.nodes {
+            for c in 0..3 {
+                let x = reference[n][c] + problem.u()[map.dof(n, c)];
+                lo[c] = lo[c].min(x);
+                hi[c] = hi[c].max(x);
+            }
+        }
+        if self.nodes.is_empty() {
+            return [f64::NAN; 3];
+        }
+        let extent = |c: usize| hi[c] - lo[c];
+        let axial = extent(self.axis);
+        let transverse = (0..3)
+            .filter(|&c| c != self.axis)
+            .map(extent)
+            .sum::<f64>()
+            / 2.0;
+        [axial, transverse, axial / transverse]
+    }
+}
+
 /// An engine problem ready to run, with its steps.
 pub struct BuiltModel {
     /// The problem (pattern and symbolic factorisation done).
@@ -29,6 +79,11 @@ pub struct BuiltModel {
     pub steps: Vec<Step>,
     /// Curve DOFs.
     pub curves: Vec<CurveDofs>,
+    /// Shape probes (the nucleus of a cell model).
+    pub probes: Vec<ShapeProbe>,
+    /// DOFs of a cell model's minimal supports: their largest reaction is reported as
+    /// `support_reaction_max_nN` (it must stay ~0: the supports only remove rigid modes).
+    pub support_dofs: Vec<usize>,
 }
 
 /// Why a model could not be built.
@@ -96,11 +151,35 @@ pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
             sign: c.sign,
         })
         .collect();
+    let probes = scenario
+        .cell
+        .iter()
+        .map(|c| ShapeProbe {
+            name: "nucleus".into(),
+            nodes: c.nucleus_surface.clone(),
+            axis: c.axis,
+        })
+        .collect();
+    let support_dofs = match &scenario.cell {
+        Some(_) => crate::cell::suspended::SUPPORT_SETS
+            .iter()
+            .flat_map(|(name, comps)| {
+                set(name)
+                    .iter()
+                    .flat_map(|&n| (0..3).filter(|&c| comps[c]).map(move |c| (n, c)))
+                    .collect::<Vec<_>>()
+            })
+            .map(|(n, c)| dof_map.dof(n, c))
+            .collect(),
+        None => Vec::new(),
+    };
     let problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))?;
     Ok(BuiltModel {
         problem,
         steps,
         curves,
+        probes,
+        support_dofs,
     })
 }
 

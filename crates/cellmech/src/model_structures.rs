@@ -1,6 +1,9 @@
 //! Engine terms for the structures of a scenario: filament families as truss or beam sets,
 //! membrane layers as membrane sets, and the DOF counts they need (6 at beam nodes).
 //!
+//! Prestrained truss families ramp their prestrain in over the first analysis step
+//! (linear in the step time), so the first step finds the prestressed equilibrium.
+//!
 //! One engine set per family: all enabled truss groups of a family become one
 //! [`TrussSet`] (one law per element), all beam groups of a family one [`BeamSet`], both
 //! named after the family so that their curve columns are `<family>_...`. Disabled groups
@@ -91,7 +94,15 @@ pub fn structure_terms(
                 terms.push(Box::new(set));
             }
             None => {
-                let set = TrussSet::with_element_laws(family, family, &mesh.nodes, pairs, laws)?;
+                let prestressed = laws.iter().any(|l| l.prestrain != 0.0);
+                let mut set =
+                    TrussSet::with_element_laws(family, family, &mesh.nodes, pairs, laws)?;
+                if prestressed {
+                    // A prestrained network is not in equilibrium with its initial geometry:
+                    // the first step ramps the prestrain in so that Newton follows the
+                    // equilibrium path instead of starting from the full imbalance.
+                    set.ramp_prestrain_in_step(0);
+                }
                 terms.push(Box::new(set));
             }
         }

@@ -9,7 +9,7 @@ use cellmech_fem::element::KernelError;
 use cellmech_fem::solve::{FailureReason, IncrementReport, IterationReport, Observer, Problem};
 use cellmech_io::{CurveWriter, Field, PvdSeries, VtuBlock, VtuFrame};
 
-use crate::model::{BuiltModel, CurveDofs};
+use crate::model::{BuiltModel, CurveDofs, ShapeProbe};
 
 /// Convergence statistics of one step.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
@@ -29,6 +29,8 @@ pub struct StepStats {
 /// Writes outputs as the solver converges increments.
 pub struct OutputWriter {
     curves: Vec<CurveDofs>,
+    probes: Vec<ShapeProbe>,
+    support_dofs: Vec<usize>,
     /// Column names of `curve.csv` (with units).
     pub header: Vec<String>,
     /// Every converged row of `curve.csv`.
@@ -66,6 +68,12 @@ impl OutputWriter {
                     .map(|(n, _)| n),
             );
         }
+        for probe in &model.probes {
+            header.extend(probe.columns());
+        }
+        if !model.support_dofs.is_empty() {
+            header.push("support_reaction_max_nN".into());
+        }
         let columns: Vec<&str> = header.iter().map(String::as_str).collect();
         let curve_csv =
             CurveWriter::create(&dir.join("curve.csv"), &columns).map_err(|e| e.to_string())?;
@@ -85,6 +93,8 @@ impl OutputWriter {
         let pvd = PvdSeries::new(dir, "fields").map_err(|e| e.to_string())?;
         Ok(OutputWriter {
             curves: model.curves.clone(),
+            probes: model.probes.clone(),
+            support_dofs: model.support_dofs.clone(),
             header,
             rows: Vec::new(),
             stats: Vec::new(),
@@ -132,6 +142,17 @@ impl OutputWriter {
                     .into_iter()
                     .map(|(_, v)| v),
             );
+        }
+        for probe in &self.probes {
+            row.extend(probe.measure(&self.nodes, problem));
+        }
+        if !self.support_dofs.is_empty() {
+            let max = self
+                .support_dofs
+                .iter()
+                .map(|&d| problem.reaction(d).abs())
+                .fold(0.0, f64::max);
+            row.push(max);
         }
         let result = self.curve_csv.push_row(&row);
         self.record(result);

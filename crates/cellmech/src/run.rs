@@ -27,8 +27,12 @@ pub struct RunSummary {
     pub status: String,
     /// Why the analysis stopped early, when it did.
     pub error: Option<String>,
-    /// Seed of random choices (none are made by this scenario).
+    /// Seed of every random choice (a cell model's; none for a plain mesh).
     pub seed: Option<u64>,
+    /// The cell model's resolved parameters, materials and geometry quality.
+    pub cell: Option<crate::scenario::cell::CellStudy>,
+    /// The cell protocol's results (test curve, reference state, forces at targets).
+    pub protocol: Option<crate::cell_report::ProtocolResults>,
     /// Mesh and system size.
     pub size: SystemSize,
     /// Per-step convergence statistics.
@@ -137,6 +141,19 @@ pub fn run(
         "fields.pvd".into(),
     ];
     files.extend(crate::plots::plot_curves(scenario, &writer, out_dir).map_err(RunError::Output)?);
+    let protocol = match &scenario.cell {
+        Some(study) => crate::cell_report::write_protocol_results(
+            study,
+            &writer,
+            out_dir,
+            scenario.output.plot_format.extension(),
+        )
+        .map_err(RunError::Output)?,
+        None => None,
+    };
+    if let Some(p) = &protocol {
+        files.extend(p.files.iter().cloned());
+    }
     files.push("summary.json".into());
     let summary = RunSummary {
         version: env!("CARGO_PKG_VERSION"),
@@ -148,7 +165,9 @@ pub fn run(
             "completed".into()
         },
         error: failure.as_ref().map(ToString::to_string),
-        seed: None,
+        seed: scenario.cell.as_ref().map(|c| c.seed),
+        cell: scenario.cell.clone(),
+        protocol,
         size: SystemSize {
             nodes: scenario.mesh.num_nodes(),
             elements: scenario.mesh.num_elements(),

@@ -1,6 +1,8 @@
 //! The suspended-cell bendo-tensegrity model: the geometry of [`SuspendedCellGeometry`]
-//! turned into engine terms (continuum, membrane, AF/MT/IF families) with minimal supports
-//! and a prestress step.
+//! turned into the parts every cellmech model is made of (mesh with node sets, continuum
+//! materials, filament and membrane structures), plus minimal supports and the prestress
+//! step. The same parts feed both the scenario path (`[cell]` in a scenario file) and
+//! [`build_suspended_cell`] for library users, so there is one definition of the model.
 //!
 //! Defaults follow `shared/spec/cell-models.md` (internal units µm, nN, kPa):
 //! cytoplasm G = 0.17 kPa, nucleus G = 1.7 kPa (ν = 0.49 for both, a parameter); CM
@@ -10,50 +12,121 @@
 
 use cellmech_fem::continuum::ContinuumBlock;
 use cellmech_fem::dof::DofMap;
-use cellmech_fem::element::beam::{BeamSection, BeamSet};
+use cellmech_fem::element::beam::BeamSection;
 use cellmech_fem::element::hex8::Hex8Formulation;
-use cellmech_fem::element::membrane::MembraneSet;
-use cellmech_fem::element::truss::TrussSet;
 use cellmech_fem::material::{AxialLaw, NeoHookean};
 use cellmech_fem::mesh::surface::boundary_quads;
-use cellmech_fem::mesh::{ElementKind, Mesh};
+use cellmech_fem::mesh::Mesh;
 use cellmech_fem::solve::{Motion, Step};
 use cellmech_fem::term::Term;
 
 use super::{CellGeometryError, SuspendedCellGeometry, SuspendedCellParams};
+use crate::scenario::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
+use crate::scenario::MaterialAssignment;
+
+/// Family names of the suspended cell's components (curve-column prefixes and
+/// `[families.<name>]` keys).
+pub mod family {
+    /// Cell membrane.
+    pub const MEMBRANE: &str = "membrane";
+    /// Actin filaments.
+    pub const ACTIN: &str = "actin";
+    /// Microtubules.
+    pub const MICROTUBULE: &str = "microtubule";
+    /// Intermediate filaments.
+    pub const INTERMEDIATE: &str = "intermediate";
+}
+
+/// Node sets of the 3-2-1 supports: all three components, y and z, z only.
+pub const SUPPORT_SETS: [(&str, [bool; 3]); 3] = [
+    ("support_xyz", [true, true, true]),
+    ("support_yz", [false, true, true]),
+    ("support_z", [false, false, true]),
+];
+
+/// Actin filament material: Young's modulus (kPa), diameter (µm), prestrain.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ActinMaterial {
+    /// Young's modulus (kPa).
+    pub youngs_modulus: f64,
+    /// Solid circular section diameter (µm).
+    pub diameter: f64,
+    /// Prestrain (0.24 = 24 %): stress-free length L0/(1 + prestrain).
+    pub prestrain: f64,
+}
+
+/// Microtubule material and hollow section.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MicrotubuleMaterial {
+    /// Young's modulus (kPa).
+    pub youngs_modulus: f64,
+    /// Outer diameter (µm).
+    pub outer_diameter: f64,
+    /// Inner diameter (µm).
+    pub inner_diameter: f64,
+    /// Poisson's ratio (shear modulus of the section).
+    pub poisson_ratio: f64,
+}
+
+/// Intermediate filament material: tension only with slack.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct IntermediateMaterial {
+    /// Young's modulus (kPa).
+    pub youngs_modulus: f64,
+    /// Solid circular section diameter (µm).
+    pub diameter: f64,
+    /// Slack (0.2 = 20 %): no force until the length exceeds (1 + slack) L0.
+    pub slack: f64,
+}
 
 /// Material and section parameters of the suspended cell (internal units).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct SuspendedCellMaterials {
     /// Cytoplasm shear modulus (kPa).
     pub cytoplasm_shear_modulus: f64,
+    /// Cytoplasm Poisson's ratio (compressibility switch).
+    pub cytoplasm_poisson_ratio: f64,
     /// Nucleus shear modulus (kPa).
     pub nucleus_shear_modulus: f64,
-    /// Poisson's ratio of cytoplasm and nucleus (compressibility switch).
-    pub continuum_poisson_ratio: f64,
+    /// Nucleus Poisson's ratio.
+    pub nucleus_poisson_ratio: f64,
     /// Cell-membrane shear modulus (kPa).
     pub membrane_shear_modulus: f64,
     /// Cell-membrane thickness (µm).
     pub membrane_thickness: f64,
-    /// AF Young's modulus (kPa), diameter (µm) and prestrain.
-    pub actin: (f64, f64, f64),
-    /// MT Young's modulus (kPa), outer and inner diameter (µm), Poisson's ratio.
-    pub microtubule: (f64, f64, f64, f64),
-    /// IF Young's modulus (kPa), diameter (µm) and slack.
-    pub intermediate: (f64, f64, f64),
+    /// Actin filaments.
+    pub actin: ActinMaterial,
+    /// Microtubules.
+    pub microtubule: MicrotubuleMaterial,
+    /// Intermediate filaments.
+    pub intermediate: IntermediateMaterial,
 }
 
 impl Default for SuspendedCellMaterials {
     fn default() -> Self {
         SuspendedCellMaterials {
             cytoplasm_shear_modulus: 0.17,
+            cytoplasm_poisson_ratio: 0.49,
             nucleus_shear_modulus: 1.7,
-            continuum_poisson_ratio: 0.49,
+            nucleus_poisson_ratio: 0.49,
             membrane_shear_modulus: 1000.0 / 3.0,
             membrane_thickness: 0.01,
-            actin: (2.6e6, 0.007, 0.24),
-            microtubule: (1.2e6, 0.025, 0.017, 0.3),
-            intermediate: (7.6e3, 0.010, 0.20),
+            actin: ActinMaterial {
+                youngs_modulus: 2.6e6,
+                diameter: 0.007,
+                prestrain: 0.24,
+            },
+            microtubule: MicrotubuleMaterial {
+                youngs_modulus: 1.2e6,
+                outer_diameter: 0.025,
+                inner_diameter: 0.017,
+                poisson_ratio: 0.3,
+            },
+            intermediate: IntermediateMaterial {
+                youngs_modulus: 7.6e3,
+                diameter: 0.010,
+                slack: 0.20,
+            },
         }
     }
 }
@@ -82,19 +155,18 @@ impl Default for Components {
     }
 }
 
-/// The built model: mesh (MT nodes appended), DOF map, terms and supports.
-pub struct SuspendedCellModel {
-    /// Geometry it was built from.
+/// The suspended cell as model parts: what a scenario resolves into.
+#[derive(Debug, Clone)]
+pub struct SuspendedCellParts {
+    /// Geometry it was built from (FA nodes, routing, quality report).
     pub geometry: SuspendedCellGeometry,
-    /// Mesh with the MT interior and centrosome nodes appended.
+    /// Mesh with the MT interior and centrosome nodes appended; node sets of the geometry
+    /// plus `centrosome` and the support sets of [`SUPPORT_SETS`].
     pub mesh: Mesh,
-    /// DOF map (6 DOFs on MT nodes, 3 elsewhere).
-    pub dof_map: DofMap,
-    /// Engine terms: cytoplasm, nucleus, then membrane, AFs, MTs, IFs when present.
-    pub terms: Vec<Box<dyn Term>>,
-    /// Statically determinate supports (3-2-1 on nucleus nodes): they carry no load when
-    /// the model is self-equilibrated.
-    pub supports: Vec<usize>,
+    /// Cytoplasm and nucleus laws (mean dilatation).
+    pub materials: Vec<MaterialAssignment>,
+    /// Membrane and the AF, MT and IF families (switched-off components are disabled).
+    pub structures: StructuresSpec,
 }
 
 /// Why the model could not be built.
@@ -120,103 +192,166 @@ fn component<E: std::fmt::Display>(component: &'static str) -> impl Fn(E) -> Cel
     }
 }
 
-/// Builds the suspended cell.
+fn positive(component: &'static str, what: &str, value: f64) -> Result<f64, CellModelError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(CellModelError::Component {
+            component,
+            message: format!("expected {what} > 0; found {value}"),
+        })
+    }
+}
+
+/// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
+pub fn suspended_cell_parts(
+    params: &SuspendedCellParams,
+    materials: &SuspendedCellMaterials,
+    components: Components,
+) -> Result<SuspendedCellParts, CellModelError> {
+    let geometry = SuspendedCellGeometry::build(params)?;
+    let mut mesh = geometry.mesh.clone();
+    let chains = geometry.append_microtubule_nodes(&mut mesh);
+    let m = materials;
+    let mut assignments = Vec::new();
+    for (name, g, nu) in [
+        (
+            "cytoplasm",
+            m.cytoplasm_shear_modulus,
+            m.cytoplasm_poisson_ratio,
+        ),
+        ("nucleus", m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
+    ] {
+        let law = NeoHookean::from_shear_poisson(g, nu).map_err(component("continuum"))?;
+        assignments.push(MaterialAssignment {
+            element_set: name.into(),
+            law,
+            formulation: Hex8Formulation::MeanDilatation,
+        });
+    }
+    let mut structures = StructuresSpec::default();
+    let faces = boundary_quads(&mesh, None).map_err(component("membrane"))?;
+    structures.membranes.push(MembraneSpec {
+        name: family::MEMBRANE.into(),
+        family: family::MEMBRANE.into(),
+        faces,
+        shear_modulus: positive("membrane", "shear modulus", m.membrane_shear_modulus)?,
+        thickness: positive("membrane", "thickness", m.membrane_thickness)?,
+        enabled: components.membrane,
+    });
+    let a = m.actin;
+    let area = AxialLaw::solid_circle_area(positive("actin", "diameter", a.diameter)?);
+    let actin = AxialLaw::tension_only(positive("actin", "Young's modulus", a.youngs_modulus)?, area)
+        .with_prestrain(a.prestrain);
+    structures.filaments.push(FilamentSpec {
+        name: family::ACTIN.into(),
+        family: family::ACTIN.into(),
+        pairs: geometry.af_edges.clone(),
+        element: FilamentElement::Truss(actin),
+        enabled: components.actin,
+    });
+    let t = m.microtubule;
+    let section = BeamSection::hollow_circular(
+        t.youngs_modulus,
+        t.poisson_ratio,
+        t.outer_diameter,
+        t.inner_diameter,
+    )
+    .map_err(component("microtubule"))?;
+    structures.filaments.push(FilamentSpec {
+        name: family::MICROTUBULE.into(),
+        family: family::MICROTUBULE.into(),
+        pairs: chains
+            .iter()
+            .flat_map(|c| c.windows(2).map(|w| [w[0], w[1]]))
+            .collect(),
+        element: FilamentElement::Beam(section),
+        enabled: components.microtubules,
+    });
+    let i = m.intermediate;
+    let area = AxialLaw::solid_circle_area(positive("intermediate", "diameter", i.diameter)?);
+    let law = AxialLaw::tension_only(
+        positive("intermediate", "Young's modulus", i.youngs_modulus)?,
+        area,
+    )
+    .with_slack(i.slack);
+    structures.filaments.push(FilamentSpec {
+        name: family::INTERMEDIATE.into(),
+        family: family::INTERMEDIATE.into(),
+        pairs: geometry.intermediate_filaments.clone(),
+        element: FilamentElement::Truss(law),
+        enabled: components.intermediate,
+    });
+    for (set, nodes) in SUPPORT_SETS
+        .iter()
+        .zip(minimal_support_nodes(&mesh, 0.5 * params.nucleus_diameter))
+    {
+        mesh.insert_node_set(set.0, vec![nodes]);
+    }
+    Ok(SuspendedCellParts {
+        geometry,
+        mesh,
+        materials: assignments,
+        structures,
+    })
+}
+
+/// The built model for library use: mesh, DOF map, engine terms and support DOFs.
+pub struct SuspendedCellModel {
+    /// Geometry it was built from.
+    pub geometry: SuspendedCellGeometry,
+    /// Mesh with the MT interior and centrosome nodes appended.
+    pub mesh: Mesh,
+    /// DOF map (6 DOFs on MT nodes, 3 elsewhere).
+    pub dof_map: DofMap,
+    /// Engine terms: cytoplasm, nucleus, then the enabled structures.
+    pub terms: Vec<Box<dyn Term>>,
+    /// Statically determinate supports (3-2-1 on nucleus nodes): they carry no load when
+    /// the model is self-equilibrated.
+    pub supports: Vec<usize>,
+}
+
+/// Builds the suspended cell as engine terms (the AF prestrain ramps in during step 0).
 pub fn build_suspended_cell(
     params: &SuspendedCellParams,
     materials: &SuspendedCellMaterials,
     components: Components,
 ) -> Result<SuspendedCellModel, CellModelError> {
-    let geometry = SuspendedCellGeometry::build(params)?;
-    let mut mesh = geometry.mesh.clone();
-    let chains = if components.microtubules {
-        geometry.append_microtubule_nodes(&mut mesh)
-    } else {
-        Vec::new()
-    };
-    let m = materials;
-    let nu = m.continuum_poisson_ratio;
+    let parts = suspended_cell_parts(params, materials, components)?;
+    let mesh = parts.mesh;
+    let dof_map = DofMap::with_counts(&crate::model_structures::dofs_per_node(
+        mesh.num_nodes(),
+        &parts.structures,
+    ));
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
-    for (name, g) in [
-        ("cytoplasm", m.cytoplasm_shear_modulus),
-        ("nucleus", m.nucleus_shear_modulus),
-    ] {
-        let law = NeoHookean::from_shear_poisson(g, nu).map_err(component("continuum"))?;
-        let block = mesh.block(name).ok_or(CellModelError::Component {
-            component: "continuum",
-            message: format!("the mesh has no block '{name}'"),
-        })?;
-        let term = ContinuumBlock::new(block, &mesh.nodes, law, Hex8Formulation::MeanDilatation)
+    for assignment in &parts.materials {
+        let block = mesh
+            .block(&assignment.element_set)
+            .ok_or(CellModelError::Component {
+                component: "continuum",
+                message: format!("the mesh has no block '{}'", assignment.element_set),
+            })?;
+        let term = ContinuumBlock::new(block, &mesh.nodes, assignment.law, assignment.formulation)
             .map_err(component("continuum"))?;
         terms.push(Box::new(term));
     }
-    if components.membrane {
-        let faces = boundary_quads(&mesh, None).map_err(component("membrane"))?;
-        let connectivity = faces.iter().flatten().copied().collect();
-        let set = MembraneSet::new(
-            "membrane",
-            ElementKind::Quad4,
-            connectivity,
-            &mesh.nodes,
-            m.membrane_shear_modulus,
-            m.membrane_thickness,
-        )
-        .map_err(component("membrane"))?;
-        terms.push(Box::new(set));
-    }
-    if components.actin {
-        let (e, d, prestrain) = m.actin;
-        let law =
-            AxialLaw::tension_only(e, AxialLaw::solid_circle_area(d)).with_prestrain(prestrain);
-        let mut set = TrussSet::new(
-            "actin",
-            "actin",
-            &mesh.nodes,
-            geometry.af_edges.clone(),
-            law,
-        )
-        .map_err(component("actin"))?;
-        set.ramp_prestrain_in_step(0);
-        terms.push(Box::new(set));
-    }
-    let mut dofs_per_node = vec![3; mesh.num_nodes()];
-    if components.microtubules {
-        let (e, d_out, d_in, nu_mt) = m.microtubule;
-        let section = BeamSection::hollow_circular(e, nu_mt, d_out, d_in)
-            .map_err(component("microtubule"))?;
-        let pairs: Vec<[usize; 2]> = chains
-            .iter()
-            .flat_map(|c| c.windows(2).map(|w| [w[0], w[1]]))
-            .collect();
-        let set = BeamSet::from_coordinates(
-            "microtubules",
-            "microtubule",
-            &mesh.nodes,
-            &pairs,
-            None,
-            section,
-        )
-        .map_err(component("microtubule"))?;
-        set.mark_rotational_nodes(&mut dofs_per_node)
-            .map_err(component("microtubule"))?;
-        terms.push(Box::new(set));
-    }
-    if components.intermediate {
-        let (e, d, slack) = m.intermediate;
-        let law = AxialLaw::tension_only(e, AxialLaw::solid_circle_area(d)).with_slack(slack);
-        let set = TrussSet::new(
-            "intermediate",
-            "intermediate",
-            &mesh.nodes,
-            geometry.intermediate_filaments.clone(),
-            law,
-        )
-        .map_err(component("intermediate"))?;
-        terms.push(Box::new(set));
-    }
-    let dof_map = DofMap::with_counts(&dofs_per_node);
-    let supports = minimal_supports(&mesh, &dof_map, 0.5 * params.nucleus_diameter);
+    terms.extend(
+        crate::model_structures::structure_terms(&mesh, &parts.structures, &dof_map)
+            .map_err(component("structures"))?,
+    );
+    let supports = SUPPORT_SETS
+        .iter()
+        .flat_map(|(set, comps)| {
+            let node = mesh.node_sets[*set][0];
+            (0..3)
+                .filter(|&c| comps[c])
+                .map(move |c| (node, c))
+                .collect::<Vec<_>>()
+        })
+        .map(|(n, c)| dof_map.dof(n, c))
+        .collect();
     Ok(SuspendedCellModel {
-        geometry,
+        geometry: parts.geometry,
         mesh,
         dof_map,
         terms,
@@ -224,9 +359,9 @@ pub fn build_suspended_cell(
     })
 }
 
-/// 3-2-1 supports on nucleus nodes: the centre (x, y, z), a node on the +x axis (y, z) and
-/// one on the +y axis (z).
-fn minimal_supports(mesh: &Mesh, dofs: &DofMap, nucleus_radius: f64) -> Vec<usize> {
+/// 3-2-1 support nodes inside the nucleus: the node nearest the centre (x, y, z), the one
+/// nearest half-way to the nucleus surface on +x (y, z) and on +y (z).
+fn minimal_support_nodes(mesh: &Mesh, nucleus_radius: f64) -> [usize; 3] {
     let nearest = |p: [f64; 3]| {
         (0..mesh.num_nodes())
             .min_by(|&a, &b| {
@@ -240,18 +375,10 @@ fn minimal_supports(mesh: &Mesh, dofs: &DofMap, nucleus_radius: f64) -> Vec<usiz
             .unwrap_or(0)
     };
     let r = 0.5 * nucleus_radius;
-    let (a, b, c) = (
+    [
         nearest([0.0; 3]),
         nearest([r, 0.0, 0.0]),
         nearest([0.0, r, 0.0]),
-    );
-    vec![
-        dofs.dof(a, 0),
-        dofs.dof(a, 1),
-        dofs.dof(a, 2),
-        dofs.dof(b, 1),
-        dofs.dof(b, 2),
-        dofs.dof(c, 2),
     ]
 }
 

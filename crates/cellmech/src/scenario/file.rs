@@ -12,8 +12,12 @@ use crate::units::{Force, Length, Pressure};
 pub struct ScenarioFile {
     /// A one-line title for outputs and plots.
     pub title: Option<String>,
-    /// Where the mesh comes from.
-    pub mesh: MeshSection,
+    /// Where the mesh comes from (or give `[cell]` to build a cell model).
+    pub mesh: Option<MeshSection>,
+    /// A built-in cell model (mesh, materials and cytoskeleton); see `scenario::cell`.
+    pub cell: Option<Spanned<super::cell::CellSection>>,
+    /// A built-in virtual experiment on the `[cell]` (tools, steps and outputs).
+    pub protocol: Option<Spanned<super::cell::ProtocolSection>>,
     /// Extra node sets selected from the mesh's nodes by position.
     #[serde(default, rename = "node_set")]
     pub node_sets: Vec<NodeSetSection>,

@@ -4,6 +4,7 @@
 //! Two levels, as in FEBio/ripgrep: [`file::ScenarioFile`] is the raw file (serde, unknown
 //! keys rejected, quantities with units), [`Scenario`] the total, checked result.
 
+pub mod cell;
 pub mod file;
 mod resolve;
 pub mod structures;
@@ -37,6 +38,8 @@ pub struct Scenario {
     pub output: OutputSpec,
     /// Rigid tools.
     pub tools: Vec<tools::ToolSpec>,
+    /// The built-in cell model and experiment, when the scenario has `[cell]`.
+    pub cell: Option<cell::CellStudy>,
     /// The scenario file as parsed, for echoing into `summary.json`.
     pub echo: toml::Table,
 }

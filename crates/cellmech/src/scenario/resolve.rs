@@ -52,12 +52,49 @@ pub fn resolve(
     base_dir: &Path,
 ) -> Result<Scenario, ScenarioError> {
     let ctx = Ctx { origin, text };
-    let mut mesh = resolve_mesh(&ctx, &raw.mesh, base_dir)?;
+    let (mut mesh, cell) = match (&raw.mesh, &raw.cell) {
+        (Some(m), None) => (resolve_mesh(&ctx, m, base_dir)?, None),
+        (None, Some(c)) => {
+            let resolved = super::cell::resolve_cell(origin, text, c)?;
+            (resolved.mesh.clone(), Some(resolved))
+        }
+        (Some(m), Some(_)) => {
+            return Err(ctx.invalid(
+                Some(m.source.span()),
+                "mesh",
+                "give either [mesh] (with [[material]] and filaments) or [cell] (a built-in cell model), not both",
+            ))
+        }
+        (None, None) => {
+            return Err(ctx.invalid(
+                None,
+                "mesh",
+                "expected a [mesh] section (or [cell] for a built-in cell model); found neither",
+            ))
+        }
+    };
     for section in &raw.node_sets {
         select_node_set(&ctx, section, &mut mesh)?;
     }
-    let materials = resolve_materials(&ctx, &raw.materials, &mesh)?;
+    let materials = match &cell {
+        Some(c) => {
+            if let Some(m) = raw.materials.first() {
+                return Err(ctx.invalid(
+                    Some(m.element_set.span()),
+                    "material[0]",
+                    "a [cell] model sets its materials in [cell.cytoplasm] and [cell.nucleus]; remove [[material]]",
+                ));
+            }
+            c.materials.clone()
+        }
+        None => resolve_materials(&ctx, &raw.materials, &mesh)?,
+    };
+    let initial = cell
+        .as_ref()
+        .map(|c| c.structures.clone())
+        .unwrap_or_default();
     let structures = super::structures::resolve_structures(
+        initial,
         &raw.filaments,
         &raw.membranes,
         &raw.families,
@@ -65,21 +102,53 @@ pub fn resolve(
         text,
         origin,
     )?;
-    if raw.steps.is_empty() {
-        return Err(ctx.invalid(
-            None,
-            "step",
-            "at least one [[step]] is required; found none",
-        ));
-    }
-    let steps = raw
-        .steps
-        .iter()
-        .enumerate()
-        .map(|(i, s)| resolve_step(&ctx, i, s, &mesh))
-        .collect::<Result<Vec<_>, _>>()?;
     let output = resolve_output(&ctx, &raw.output, &mesh)?;
-    let (tools, steps) = super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?;
+    let mut study = cell.map(|c| c.study);
+    let (tools, steps) = match (&raw.protocol, &mut study) {
+        (Some(p), Some(study)) => {
+            if !raw.steps.is_empty() {
+                return Err(ctx.invalid(
+                    Some(p.span()),
+                    "step",
+                    "[protocol] writes the analysis steps; remove the [[step]] sections (or the [protocol])",
+                ));
+            }
+            if let Some(t) = raw.tools.first() {
+                return Err(ctx.invalid(
+                    Some(t.name.span()),
+                    "tool[0]",
+                    "[protocol] places its own tools; remove the [[tool]] sections (or the [protocol])",
+                ));
+            }
+            let (tools, steps, spec) =
+                super::cell::resolve_protocol(origin, text, p, study, &mut mesh, &materials)?;
+            study.protocol = Some(spec);
+            (tools, steps)
+        }
+        (Some(p), None) => {
+            return Err(ctx.invalid(
+                Some(p.span()),
+                "protocol",
+                "a [protocol] runs on a built-in cell model: add a [cell] section",
+            ))
+        }
+        (None, _) => {
+            if raw.steps.is_empty() {
+                return Err(ctx.invalid(
+                    None,
+                    "step",
+                    "at least one [[step]] (or a [protocol] on a [cell]) is required; found none",
+                ));
+            }
+            let steps = raw
+                .steps
+                .iter()
+                .enumerate()
+                .map(|(i, s)| resolve_step(&ctx, i, s, &mesh))
+                .collect::<Result<Vec<_>, _>>()?;
+            super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
+        }
+    };
     Ok(Scenario {
         title: raw.title.unwrap_or_else(|| "cellmech analysis".into()),
         origin: origin.into(),
@@ -89,6 +158,7 @@ pub fn resolve(
         steps,
         output,
         tools,
+        cell: study,
         echo,
     })
 }

@@ -176,9 +176,11 @@ fn valid_family_name(name: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
-/// Resolves the `[[filament]]`, `[[membrane]]` and `[families.*]` sections against `mesh`.
-/// `text` and `origin` locate errors.
+/// Resolves the `[[filament]]`, `[[membrane]]` and `[families.*]` sections against `mesh`,
+/// adding to the structures a model builder already made (`initial`, e.g. the suspended
+/// cell's families; empty for a plain mesh). `text` and `origin` locate errors.
 pub fn resolve_structures(
+    initial: StructuresSpec,
     filaments: &[FilamentSection],
     membranes: &[MembraneSection],
     families: &BTreeMap<String, Spanned<FamilySection>>,
@@ -187,9 +189,15 @@ pub fn resolve_structures(
     origin: &str,
 ) -> Result<StructuresSpec, ScenarioError> {
     let ctx = Ctx { origin, text };
-    let mut spec = StructuresSpec::default();
-    // Where each family was first declared, for messages.
-    let mut family_spans: BTreeMap<String, Option<Range<usize>>> = BTreeMap::new();
+    let mut spec = initial;
+    // Where each family was first declared, for messages (built-in families: nowhere).
+    let mut family_spans: BTreeMap<String, Option<Range<usize>>> = spec
+        .filaments
+        .iter()
+        .map(|f| &f.family)
+        .chain(spec.membranes.iter().map(|m| &m.family))
+        .map(|f| (f.clone(), None))
+        .collect();
     for (i, s) in filaments.iter().enumerate() {
         let f = resolve_filament(&ctx, i, s, mesh)?;
         if spec.filaments.iter().any(|g| g.name == f.name) {

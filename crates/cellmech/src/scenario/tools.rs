@@ -185,6 +185,17 @@ fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
     }
 }
 
+/// The default penalty of a tool on `nodes`: [`PENALTY_FACTOR`] × the largest shear
+/// modulus × the mean spacing of the contact nodes (0 when no material has a modulus).
+pub(super) fn default_penalty(materials: &[MaterialAssignment], mesh: &Mesh, nodes: &[usize]) -> f64 {
+    PENALTY_FACTOR * largest_shear_modulus(materials) * mean_spacing(mesh, nodes)
+}
+
+/// The default penetration / bond-gap tolerance: [`TOLERANCE_FACTOR`] × the mesh diagonal.
+pub(super) fn default_tolerance(mesh: &Mesh) -> f64 {
+    TOLERANCE_FACTOR * mesh_diagonal(mesh)
+}
+
 /// Resolves the `[[tool]]` sections against the mesh and materials.
 pub(super) fn resolve_tools(
     ctx: &ToolCtx,
@@ -361,7 +372,7 @@ pub(super) fn resolve_tools(
                             .into(),
                     ));
                 }
-                PENALTY_FACTOR * g * mean_spacing(mesh, nodes)
+                default_penalty(materials, mesh, nodes)
             }
         };
         let tolerance = match &s.tolerance {
@@ -376,7 +387,7 @@ pub(super) fn resolve_tools(
                 }
                 v
             }
-            None => TOLERANCE_FACTOR * mesh_diagonal(mesh),
+            None => default_tolerance(mesh),
         };
         // Initial penetration: the body's reference shape must not start inside the tool.
         let deepest = nodes

@@ -1,0 +1,218 @@
+//! The results of a cell protocol, derived from the rows of `curve.csv`: the test's own
+//! curve (force vs elongation with the normalised stiffness for tension; force vs
+//! deformation for compression) with the nucleus strain and shape, written as
+//! `tension.csv` / `compression.csv`, their plots, and the numbers for `summary.json`.
+
+use std::path::Path;
+
+use cellmech_io::{plot_xy, CurveWriter, PlotSpec, Series, SeriesStyle};
+use serde::Serialize;
+
+use crate::output::OutputWriter;
+use crate::scenario::cell::{CellStudy, ProtocolSpec};
+
+/// One row of the test curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TestPoint {
+    /// Tension: elongation from the reference state (µm); compression: plate travel from
+    /// contact (µm).
+    pub displacement_um: f64,
+    /// Compression: travel / cell diameter (the deformation of the diameter); tension:
+    /// elongation / cell diameter.
+    pub strain: f64,
+    /// Force on the moving tool along the test (tension positive when pulling,
+    /// compression positive when pushing) (nN).
+    pub force_nn: f64,
+    /// Tension: force / (π D²/4) / (elongation / D) (kPa); compression: the same with the
+    /// deformation.
+    pub normalised_stiffness_kpa: f64,
+    /// Largest first principal logarithmic strain in the nucleus.
+    pub nucleus_max_principal_log_strain: f64,
+    /// Nucleus length along the test axis over its mean transverse width.
+    pub nucleus_aspect_ratio: f64,
+}
+
+/// What a protocol run showed.
+#[derive(Debug, Clone, Serialize)]
+pub struct ProtocolResults {
+    /// `micropipette-tension` or `microplate-compression`.
+    pub kind: String,
+    /// Largest support reaction during the prestress step (nN): ~0 for a free cell.
+    pub prestress_support_reaction_max_nn: Option<f64>,
+    /// Force on the moving tool at the reference (tension) or contact (compression) state.
+    pub reference_force_nn: Option<f64>,
+    /// The test curve, from the reference state on.
+    pub curve: Vec<TestPoint>,
+    /// Compression: the point at the end of each compression step.
+    pub at_deformations: Vec<(f64, TestPoint)>,
+    /// The last point (end of the test or the last converged increment).
+    pub last: Option<TestPoint>,
+    /// Files written.
+    pub files: Vec<String>,
+}
+
+/// Computes the test curve from the writer's rows and writes its CSV and plots into `dir`.
+/// Returns `None` when the scenario has no loading protocol.
+pub fn write_protocol_results(
+    study: &CellStudy,
+    writer: &OutputWriter,
+    dir: &Path,
+    plot_extension: &str,
+) -> Result<Option<ProtocolResults>, String> {
+    let (kind, tool, reference_step, sign, loading) = match &study.protocol {
+        Some(ProtocolSpec::MicropipetteTension {
+            moving_tool,
+            reference_step,
+            stretch_step,
+            ..
+        }) => (
+            "micropipette-tension",
+            moving_tool,
+            *reference_step,
+            1.0,
+            vec![*stretch_step],
+        ),
+        Some(ProtocolSpec::MicroplateCompression {
+            moving_tool,
+            contact_step,
+            deformations,
+        }) => (
+            "microplate-compression",
+            moving_tool,
+            *contact_step,
+            -1.0,
+            deformations.iter().map(|(s, _)| *s).collect(),
+        ),
+        _ => return Ok(None),
+    };
+    let column = |name: &str| {
+        writer
+            .column(name)
+            .ok_or_else(|| format!("curve.csv has no column {name}"))
+    };
+    let step = column("step")?;
+    let u = column(&format!("{tool}_displacement_x_um"))?;
+    let f = column(&format!("{tool}_force_x_nN"))?;
+    let strain = column("nucleus_max_principal_log_strain")?;
+    let aspect = column("nucleus_aspect_ratio")?;
+    let support = column("support_reaction_max_nN")?;
+    let d = study.cell_diameter;
+    let area = std::f64::consts::PI * d * d / 4.0;
+    let last_row_of = |s: usize| step.iter().rposition(|&k| k as usize == s);
+    let prestress_support_reaction_max_nn = step
+        .iter()
+        .zip(&support)
+        .filter(|(k, _)| **k == 0.0)
+        .map(|(_, r)| *r)
+        .reduce(f64::max);
+    let mut results = ProtocolResults {
+        kind: kind.into(),
+        prestress_support_reaction_max_nn,
+        reference_force_nn: None,
+        curve: Vec::new(),
+        at_deformations: Vec::new(),
+        last: None,
+        files: Vec::new(),
+    };
+    let Some(reference) = last_row_of(reference_step) else {
+        return Ok(Some(results));
+    };
+    results.reference_force_nn = Some(sign * f[reference]);
+    let point = |r: usize| {
+        let displacement = sign * (u[r] - u[reference]);
+        let e = displacement / d;
+        let force = sign * f[r];
+        TestPoint {
+            displacement_um: displacement,
+            strain: e,
+            force_nn: force,
+            normalised_stiffness_kpa: if e > 0.0 { force / area / e } else { f64::NAN },
+            nucleus_max_principal_log_strain: strain[r],
+            nucleus_aspect_ratio: aspect[r],
+        }
+    };
+    results.curve.push(point(reference));
+    for r in reference + 1..step.len() {
+        if loading.contains(&(step[r] as usize)) {
+            results.curve.push(point(r));
+        }
+    }
+    if let Some(ProtocolSpec::MicroplateCompression { deformations, .. }) = &study.protocol {
+        for (s, target) in deformations {
+            if let Some(r) = last_row_of(*s) {
+                results.at_deformations.push((*target, point(r)));
+            }
+        }
+    }
+    results.last = results.curve.last().copied();
+    let (stem, x_label) = if sign > 0.0 {
+        ("tension", "elongation (µm)")
+    } else {
+        ("compression", "plate travel from contact (µm)")
+    };
+    let csv = format!("{stem}.csv");
+    let mut out = CurveWriter::create(
+        &dir.join(&csv),
+        &[
+            if sign > 0.0 {
+                "elongation_um"
+            } else {
+                "plate_travel_um"
+            },
+            "strain_of_diameter",
+            "force_nN",
+            "normalised_stiffness_kPa",
+            "nucleus_max_principal_log_strain",
+            "nucleus_aspect_ratio",
+        ],
+    )
+    .map_err(|e| e.to_string())?;
+    for p in &results.curve {
+        out.push_row(&[
+            p.displacement_um,
+            p.strain,
+            p.force_nn,
+            p.normalised_stiffness_kpa,
+            p.nucleus_max_principal_log_strain,
+            p.nucleus_aspect_ratio,
+        ])
+        .map_err(|e| e.to_string())?;
+    }
+    results.files.push(csv);
+    let series = |label: &str, y: fn(&TestPoint) -> f64| Series {
+        label: label.into(),
+        points: results
+            .curve
+            .iter()
+            .map(|p| (p.displacement_um, y(p)))
+            .collect(),
+        style: SeriesStyle::LineAndMarkers,
+    };
+    let title = match kind {
+        "micropipette-tension" => "Suspended cell: micropipette tension",
+        _ => "Suspended cell: microplate compression",
+    };
+    let plots = [
+        (
+            format!("{stem}-force.{plot_extension}"),
+            "force on the moving tool (nN)",
+            series("force", |p| p.force_nn),
+        ),
+        (
+            format!("{stem}-nucleus.{plot_extension}"),
+            "nucleus max principal log strain",
+            series("nucleus strain", |p| p.nucleus_max_principal_log_strain),
+        ),
+    ];
+    for (file, y_label, s) in plots {
+        let spec = PlotSpec {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series: vec![s],
+        };
+        plot_xy(&dir.join(&file), &spec).map_err(|e| e.to_string())?;
+        results.files.push(file);
+    }
+    Ok(Some(results))
+}
