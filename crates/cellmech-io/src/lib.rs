@@ -5,7 +5,8 @@
 //!   that name the file and line.
 //! * Results out: VTK XML unstructured grids and ParaView collections ([`write_vtu`],
 //!   [`PvdSeries`]), CSV curves ([`CurveWriter`]), JSON ([`write_json_atomic`]) and line plots
-//!   as PNG or SVG ([`plot_xy`]).
+//!   as PNG or SVG ([`plot_xy`]) and orthographic line drawings of 3-D models
+//!   ([`plot_model_picture`]).
 //!
 //! Every writer replaces its file atomically ([`write_atomic`]): a crash leaves the previous
 //! complete file or the new complete file, never a truncated one. The formats are described in
@@ -20,6 +21,7 @@ pub mod json_out;
 mod lines;
 pub mod plot;
 pub mod pvd;
+pub mod view3d;
 pub mod vtu;
 
 pub use abaqus::{parse_abaqus, read_abaqus, AbaqusDeck, ElementRef};
@@ -30,6 +32,7 @@ pub use gmsh::{parse_gmsh, read_gmsh};
 pub use json_out::{write_json_atomic, JsonError};
 pub use plot::{plot_xy, PlotError, PlotSpec, Series, SeriesStyle};
 pub use pvd::PvdSeries;
+pub use view3d::{plot_model_picture, LineGroup, ModelPicture, View3d};
 pub use vtu::{vtu_string, write_vtu, Field, VtuBlock, VtuError, VtuFrame};
 
 #[cfg(test)]

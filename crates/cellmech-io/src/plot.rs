@@ -13,7 +13,7 @@ use crate::error::WriteError;
 
 /// DejaVu Sans (license in `assets/DejaVuSans-LICENSE.txt`).
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-const FONT_FAMILY: &str = "sans-serif";
+pub(crate) const FONT_FAMILY: &str = "sans-serif";
 const SIZE: (u32, u32) = (900, 600);
 const COLORS: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
@@ -80,12 +80,20 @@ pub enum PlotError {
         /// Plotters' message.
         message: String,
     },
+    /// The picture cannot be drawn as given (nothing to draw, zero extent, bad view angles).
+    #[error("{}: {reason}", path.display())]
+    InvalidPicture {
+        /// The requested file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
     /// Writing failed.
     #[error(transparent)]
     Write(#[from] WriteError),
 }
 
-fn register_font() -> Result<(), PlotError> {
+pub(crate) fn register_font() -> Result<(), PlotError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT).is_ok()
@@ -99,21 +107,65 @@ fn register_font() -> Result<(), PlotError> {
 
 /// Draws `spec` into `path` (`.png` or `.svg`, case-insensitive).
 pub fn plot_xy(path: &Path, spec: &PlotSpec) -> Result<(), PlotError> {
+    let format = PlotFormat::of(path)?;
+    render(
+        path,
+        format,
+        SIZE,
+        |root| draw(root, spec),
+        |root| draw(root, spec),
+    )
+}
+
+/// Output format of a picture, chosen by the file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum PlotFormat {
+    Png,
+    Svg,
+}
+
+impl PlotFormat {
+    /// The format for `path`'s extension (`.png` or `.svg`, case-insensitive).
+    pub(crate) fn of(path: &Path) -> Result<Self, PlotError> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        match ext.as_str() {
+            "png" => Ok(Self::Png),
+            "svg" => Ok(Self::Svg),
+            _ => Err(PlotError::UnknownFormat {
+                path: path.to_path_buf(),
+            }),
+        }
+    }
+}
+
+/// Renders a picture of `size` pixels into `path` with the bundled font registered: the
+/// bitmap drawer for PNG, the SVG drawer for SVG (two closures because the backends are
+/// different types). The file is replaced atomically; nothing is left behind on failure.
+pub(crate) fn render<P, S>(
+    path: &Path,
+    format: PlotFormat,
+    size: (u32, u32),
+    draw_png: P,
+    draw_svg: S,
+) -> Result<(), PlotError>
+where
+    P: FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>,
+    S: FnOnce(DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>,
+{
     register_font()?;
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
     let draw_err = |message: String| PlotError::Draw {
         path: path.to_path_buf(),
         message,
     };
-    match ext.as_str() {
-        "png" => {
+    match format {
+        PlotFormat::Png => {
             let temp = temp_path(path, "png");
             let result = {
-                let root = BitMapBackend::new(&temp, SIZE).into_drawing_area();
-                draw(root, spec)
+                let root = BitMapBackend::new(&temp, size).into_drawing_area();
+                draw_png(root)
             };
             if let Err(message) = result {
                 let _ = std::fs::remove_file(&temp);
@@ -128,18 +180,15 @@ pub fn plot_xy(path: &Path, spec: &PlotSpec) -> Result<(), PlotError> {
             })?;
             Ok(())
         }
-        "svg" => {
+        PlotFormat::Svg => {
             let mut svg = String::new();
             {
-                let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
-                draw(root, spec).map_err(draw_err)?;
+                let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+                draw_svg(root).map_err(draw_err)?;
             }
             write_atomic(path, svg.as_bytes())?;
             Ok(())
         }
-        _ => Err(PlotError::UnknownFormat {
-            path: path.to_path_buf(),
-        }),
     }
 }
 
