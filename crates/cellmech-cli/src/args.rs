@@ -6,13 +6,16 @@ use clap::{Args, Parser, Subcommand};
 
 /// Virtual mechanical tests on single living cells (finite elements).
 ///
-/// A scenario file (TOML, quantities with units like "0.5 kPa" or "2 um") describes the mesh,
-/// the materials, the analysis steps and the outputs. `cellmech run` solves it and writes the
-/// force curve (curve.csv and a plot), the convergence table, a ParaView series (fields.pvd)
-/// and summary.json into the output directory.
+/// A scenario file (TOML, quantities with units like "0.5 kPa" or "2 um") describes the model
+/// (a mesh with materials and filaments, or a built-in cell model with `[cell]`), the
+/// experiment (rigid tools and analysis steps, or a built-in `[protocol]`) and the outputs.
+/// `cellmech run` solves it and writes the force curve (curve.csv and a plot), the
+/// convergence table, a ParaView series (fields.pvd) and summary.json into the output
+/// directory.
 ///
 /// Examples:
-///   cellmech run                                  # the built-in default test
+///   cellmech run                                  # the built-in default: suspended-cell tension
+///   cellmech build examples/suspended-compression.toml   # look at the model before solving
 ///   cellmech run examples/sphere-compression.toml --out results/sphere
 ///   cellmech check my-cell.toml                    # validate without solving
 ///   cellmech example sphere-compression > my.toml  # start from a shipped scenario
@@ -33,6 +36,12 @@ pub enum Command {
     Run(RunArgs),
     /// Read and validate a scenario (mesh, sets, materials, steps) without solving.
     Check(CheckArgs),
+    /// Build a scenario's model and write it for viewing, without solving.
+    ///
+    /// Writes model.pvd (+ model_0000.vtu: continuum, membrane and filaments as line cells
+    /// for ParaView), model.png (a picture: surface mesh and filament families in two views)
+    /// and model.json (sizes, sets, the cell model's parameters and geometry quality).
+    Build(BuildArgs),
     /// Print a built-in example scenario (list them without a name).
     Example(ExampleArgs),
     /// Time assembly, factorisation, solve and a Newton iteration on sphere meshes.
@@ -61,6 +70,17 @@ pub struct RunArgs {
     pub scenario: Option<PathBuf>,
     /// Output directory.
     #[arg(short, long, default_value = "cellmech-out")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct BuildArgs {
+    /// Scenario file (TOML). Default: the built-in default scenario.
+    pub scenario: Option<PathBuf>,
+    /// Output directory.
+    #[arg(short, long, default_value = "cellmech-model")]
     pub out: PathBuf,
     #[command(flatten)]
     pub report: ReportArgs,

@@ -12,6 +12,7 @@ pub mod cell_report;
 pub mod examples;
 pub mod mesh_file;
 pub mod model;
+pub mod model_view;
 pub mod model_structures;
 pub mod model_tools;
 pub mod output;

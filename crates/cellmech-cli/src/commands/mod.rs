@@ -1,6 +1,7 @@
 //! Subcommands.
 
 mod bench;
+mod build;
 mod check;
 mod example;
 mod run;
@@ -14,6 +15,7 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Check(args) => check::check(&args),
+        Command::Build(args) => build::build(&args),
         Command::Example(args) => example::example(&args),
         Command::Bench(args) => bench::bench(&args),
     }

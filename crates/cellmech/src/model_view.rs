@@ -1,0 +1,151 @@
+//! Looking at a model before solving it (`cellmech build`): the model in its reference
+//! state as a ParaView file (`model.pvd` + `model_0000.vtu`: continuum, membrane and line
+//! cells with their fields), a picture made by the program (`model.png`: the surface mesh
+//! in grey and each filament family in its colour, in an oblique and a front view), and
+//! `model.json` (sizes, node and element sets, the cell model's parameters and geometry
+//! quality).
+
+use std::path::Path;
+
+use cellmech_fem::mesh::surface::boundary_quads;
+use cellmech_io::{plot_model_picture, LineGroup, ModelPicture, PvdSeries, View3d};
+use serde::Serialize;
+
+use crate::model::BuiltModel;
+use crate::scenario::structures::FilamentElement;
+use crate::scenario::Scenario;
+
+/// Colours of well-known families (others cycle through a palette).
+fn family_color(family: &str, k: usize) -> (u8, u8, u8) {
+    match family {
+        "actin" => (214, 39, 40),
+        "microtubule" => (44, 160, 44),
+        "intermediate" => (148, 103, 189),
+        _ => [(31, 119, 180), (255, 127, 14), (140, 86, 75), (227, 119, 194)][k % 4],
+    }
+}
+
+/// The picture of a scenario's model: the outer surface mesh and every enabled filament
+/// group, coloured by family.
+pub fn model_picture(scenario: &Scenario) -> ModelPicture {
+    let mesh = &scenario.mesh;
+    let x = |n: usize| mesh.nodes[n];
+    let mut groups = Vec::new();
+    let outlines: [(Option<&[&str]>, &str, (u8, u8, u8)); 2] = [
+        (None, "surface mesh", (170, 170, 170)),
+        (Some(&["nucleus"]), "nucleus surface", (120, 170, 220)),
+    ];
+    for (filter, label, color) in outlines {
+        if filter.is_some() && mesh.block("nucleus").is_none() {
+            continue;
+        }
+        let Ok(faces) = boundary_quads(mesh, filter) else {
+            continue;
+        };
+        // Each surface edge is shared by two faces: draw it once.
+        let edges: std::collections::BTreeSet<(usize, usize)> = faces
+            .iter()
+            .flat_map(|f| (0..4).map(move |k| (f[k].min(f[(k + 1) % 4]), f[k].max(f[(k + 1) % 4]))))
+            .collect();
+        groups.push(LineGroup {
+            label: format!("{label} ({} faces)", faces.len()),
+            color,
+            width: 1,
+            segments: edges.into_iter().map(|(a, b)| [x(a), x(b)]).collect(),
+        });
+    }
+    let mut families: Vec<(&str, Vec<[[f64; 3]; 2]>, &str)> = Vec::new();
+    for f in scenario.structures.filaments.iter().filter(|f| f.enabled) {
+        let kind = match f.element {
+            FilamentElement::Truss(_) => "trusses",
+            FilamentElement::Beam(_) => "beams",
+        };
+        let segments = f.pairs.iter().map(|&[a, b]| [x(a), x(b)]);
+        match families.iter_mut().find(|(name, _, _)| *name == f.family) {
+            Some(entry) => entry.1.extend(segments),
+            None => families.push((&f.family, segments.collect(), kind)),
+        }
+    }
+    for (k, (family, segments, kind)) in families.into_iter().enumerate() {
+        groups.push(LineGroup {
+            label: format!("{family} ({} {kind})", segments.len()),
+            color: family_color(family, k),
+            width: 2,
+            segments,
+        });
+    }
+    ModelPicture {
+        title: scenario.title.clone(),
+        views: vec![
+            ("oblique".into(), View3d::new(-60.0, 25.0)),
+            ("front (x right, z up)".into(), View3d::new(-90.0, 0.0)),
+        ],
+        groups,
+    }
+}
+
+/// Sizes and sets of a built model, for `model.json`.
+#[derive(Debug, Serialize)]
+struct ModelDescription<'a> {
+    title: &'a str,
+    scenario: &'a str,
+    nodes: usize,
+    hex8_elements: usize,
+    dofs: usize,
+    element_sets: Vec<(String, usize)>,
+    node_sets: Vec<(String, usize)>,
+    terms: Vec<(String, usize)>,
+    steps: Vec<&'a str>,
+    seed: Option<u64>,
+    cell: Option<&'a crate::scenario::cell::CellStudy>,
+}
+
+/// Writes `model.pvd`/`model_0000.vtu`, `model.<png|svg>` and `model.json` into `dir`
+/// (created if needed) and returns the file names.
+pub fn write_model(
+    scenario: &Scenario,
+    model: &BuiltModel,
+    dir: &Path,
+) -> Result<Vec<String>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let mut pvd = PvdSeries::new(dir, "model").map_err(|e| e.to_string())?;
+    crate::output::write_frame(&mut pvd, 0.0, &model.problem, &scenario.mesh.nodes)?;
+    let picture = format!("model.{}", scenario.output.plot_format.extension());
+    plot_model_picture(&dir.join(&picture), &model_picture(scenario)).map_err(|e| e.to_string())?;
+    let p = &model.problem;
+    let description = ModelDescription {
+        title: &scenario.title,
+        scenario: &scenario.origin,
+        nodes: scenario.mesh.num_nodes(),
+        hex8_elements: scenario.mesh.num_elements(),
+        dofs: p.dof_map().num_dofs(),
+        element_sets: scenario
+            .mesh
+            .blocks
+            .iter()
+            .map(|b| (b.name.clone(), b.len()))
+            .collect(),
+        node_sets: scenario
+            .mesh
+            .node_sets
+            .iter()
+            .map(|(k, v)| (k.clone(), v.len()))
+            .collect(),
+        terms: p
+            .terms()
+            .iter()
+            .map(|t| (t.name().to_string(), t.num_elements()))
+            .collect(),
+        steps: scenario.steps.iter().map(|s| s.name.as_str()).collect(),
+        seed: scenario.cell.as_ref().map(|c| c.seed),
+        cell: scenario.cell.as_ref(),
+    };
+    cellmech_io::write_json_atomic(&dir.join("model.json"), &description)
+        .map_err(|e| e.to_string())?;
+    Ok(vec![
+        "model.pvd".into(),
+        "model_0000.vtu".into(),
+        picture,
+        "model.json".into(),
+    ])
+}
