@@ -39,6 +39,8 @@ pub struct ProtocolResults {
     pub kind: String,
     /// Largest support reaction during the prestress step (nN): ~0 for a free cell.
     pub prestress_support_reaction_max_nn: Option<f64>,
+    /// Largest support reaction over the whole analysis (nN), to compare with the force.
+    pub support_reaction_max_nn: Option<f64>,
     /// Force on the moving tool at the reference (tension) or contact (compression) state.
     pub reference_force_nn: Option<f64>,
     /// The test curve, from the reference state on.
@@ -108,6 +110,7 @@ pub fn write_protocol_results(
     let mut results = ProtocolResults {
         kind: kind.into(),
         prestress_support_reaction_max_nn,
+        support_reaction_max_nn: support.iter().copied().reduce(f64::max),
         reference_force_nn: None,
         curve: Vec::new(),
         at_deformations: Vec::new(),

@@ -62,11 +62,7 @@ impl ShapeProbe {
         }
         let extent = |c: usize| hi[c] - lo[c];
         let axial = extent(self.axis);
-        let transverse = (0..3)
-            .filter(|&c| c != self.axis)
-            .map(extent)
-            .sum::<f64>()
-            / 2.0;
+        let transverse = (0..3).filter(|&c| c != self.axis).map(extent).sum::<f64>() / 2.0;
         [axial, transverse, axial / transverse]
     }
 }
@@ -173,7 +169,9 @@ pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
             .collect(),
         None => Vec::new(),
     };
-    let problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))?;
+    let mut problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))?;
+    let (lo, hi) = mesh.bounding_box();
+    problem.set_length_scale((0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt());
     Ok(BuiltModel {
         problem,
         steps,

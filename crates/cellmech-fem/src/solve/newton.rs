@@ -34,6 +34,9 @@ pub struct IterationReport {
 
 /// A residual this small relative to the force scale is round-off: converged.
 const ROUND_OFF: f64 = 1e-13;
+/// A correction this small relative to the model size (`Problem::set_length_scale`) is
+/// round-off of the coordinates: converged.
+pub(super) const COORDINATE_ROUND_OFF: f64 = 1e-13;
 
 fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
     v.iter()
@@ -119,8 +122,11 @@ impl Problem {
             }
             // At round-off level the energy ratio carries no information (e.g. a step that
             // starts in equilibrium), so the residual alone decides there.
+            let correction =
+                step_length * self.work.delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             let converged = scale == 0.0
                 || residual_ratio <= ROUND_OFF
+                || correction <= COORDINATE_ROUND_OFF * self.length_scale
                 || (residual_ratio <= conv.residual_tolerance
                     && energy_ratio <= conv.energy_tolerance);
             if converged {

@@ -58,9 +58,24 @@ pub struct Problem {
     pub(super) work: Work,
     total_time: f64,
     steps_done: usize,
+    /// Size of the model (µm), when known: a Newton correction below
+    /// [`super::newton::COORDINATE_ROUND_OFF`] times it is round-off of the coordinates.
+    pub(super) length_scale: f64,
 }
 
 impl Problem {
+    /// Declares the model size (e.g. its bounding-box diagonal, µm). Newton then also
+    /// accepts an increment whose correction is below round-off of the coordinates
+    /// (1e-13 of this size): the only way to recognise equilibrium in a step that carries
+    /// no load at all, where every force scale is itself round-off.
+    pub fn set_length_scale(&mut self, length: f64) {
+        self.length_scale = if length.is_finite() && length > 0.0 {
+            length
+        } else {
+            0.0
+        };
+    }
+
     /// Builds the pattern and the symbolic factorisation for these terms.
     pub fn new(
         dof_map: DofMap,
@@ -98,6 +113,7 @@ impl Problem {
             },
             total_time: 0.0,
             steps_done: 0,
+            length_scale: 0.0,
         })
     }
 

@@ -241,8 +241,11 @@ pub fn suspended_cell_parts(
     });
     let a = m.actin;
     let area = AxialLaw::solid_circle_area(positive("actin", "diameter", a.diameter)?);
-    let actin = AxialLaw::tension_only(positive("actin", "Young's modulus", a.youngs_modulus)?, area)
-        .with_prestrain(a.prestrain);
+    let actin = AxialLaw::tension_only(
+        positive("actin", "Young's modulus", a.youngs_modulus)?,
+        area,
+    )
+    .with_prestrain(a.prestrain);
     structures.filaments.push(FilamentSpec {
         name: family::ACTIN.into(),
         family: family::ACTIN.into(),

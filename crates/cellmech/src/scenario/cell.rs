@@ -304,7 +304,11 @@ pub(super) fn resolve_cell(
         }
     }
     let defaults = SuspendedCellParams::default();
-    let mut mesh = match c.resolution.as_ref().map(|r| (r.get_ref().as_str(), r.span())) {
+    let mut mesh = match c
+        .resolution
+        .as_ref()
+        .map(|r| (r.get_ref().as_str(), r.span()))
+    {
         None | Some(("default", _)) => MeshResolution::default(),
         Some(("fine", _)) => MeshResolution::fine(),
         Some((other, s)) => {
@@ -316,18 +320,30 @@ pub(super) fn resolve_cell(
         }
     };
     for (value, target, key) in [
-        (&c.core_divisions, &mut mesh.core_divisions, "cell.core_divisions"),
+        (
+            &c.core_divisions,
+            &mut mesh.core_divisions,
+            "cell.core_divisions",
+        ),
         (&c.shell_layers, &mut mesh.shell_layers, "cell.shell_layers"),
         (&c.outer_layers, &mut mesh.outer_layers, "cell.outer_layers"),
     ] {
         if let Some(v) = value {
             if *v.get_ref() == 0 {
-                return Err(ctx.invalid(Some(v.span()), key, "expected at least 1; found 0".into()));
+                return Err(ctx.invalid(
+                    Some(v.span()),
+                    key,
+                    "expected at least 1; found 0".into(),
+                ));
             }
             *target = *v.get_ref();
         }
     }
-    let fa_orientation = match c.fa_orientation.as_ref().map(|r| (r.get_ref().as_str(), r.span())) {
+    let fa_orientation = match c
+        .fa_orientation
+        .as_ref()
+        .map(|r| (r.get_ref().as_str(), r.span()))
+    {
         None | Some(("symmetric", _)) => FaOrientation::Symmetric,
         Some(("optimized", _)) => FaOrientation::Optimized {
             trials: c.orientation_trials.unwrap_or(2000),
@@ -342,7 +358,11 @@ pub(super) fn resolve_cell(
     };
     let mt = &c.microtubules;
     let ifs = &c.intermediate;
-    let if_anchor_rule = match ifs.anchor.as_ref().map(|r| (r.get_ref().as_str(), r.span())) {
+    let if_anchor_rule = match ifs
+        .anchor
+        .as_ref()
+        .map(|r| (r.get_ref().as_str(), r.span()))
+    {
         None | Some(("nearest", _)) => IfAnchorRule::Nearest,
         Some(("nearest-visible", _)) => IfAnchorRule::NearestVisible,
         Some((other, s)) => {
@@ -369,11 +389,19 @@ pub(super) fn resolve_cell(
             .clearance_margin
             .as_ref()
             .map_or(defaults.mt_clearance_margin, |v| v.get_ref().0),
-        centrosome_gap: ctx.positive(
-            &mt.centrosome_gap,
-            "cell.microtubules.centrosome_gap",
-            defaults.centrosome_gap,
-        )?,
+        centrosome_gap: match &mt.centrosome_gap {
+            Some(g) if !(g.get_ref().0 > 0.0) => {
+                return Err(ctx.invalid(
+                    Some(g.span()),
+                    "cell.microtubules.centrosome_gap",
+                    format!(
+                        "the centrosome must lie outside the nucleus: centrosome_gap is its distance from the nucleus surface, expected > 0; found {} (a centrosome inside the nucleus)",
+                        g.get_ref()
+                    ),
+                ))
+            }
+            g => g.as_ref().map_or(defaults.centrosome_gap, |v| v.get_ref().0),
+        },
         centrosome_direction: mt
             .centrosome_direction
             .as_ref()
@@ -391,7 +419,10 @@ pub(super) fn resolve_cell(
         Some(p) if !(*p.get_ref() > -1.0 && *p.get_ref() < 0.5) => Err(ctx.invalid(
             Some(p.span()),
             key,
-            format!("expected a Poisson's ratio in (-1, 0.5); found {}", p.get_ref()),
+            format!(
+                "expected a Poisson's ratio in (-1, 0.5); found {}",
+                p.get_ref()
+            ),
         )),
         _ => Ok(plain(v, default)),
     };
@@ -567,7 +598,10 @@ pub(super) fn resolve_protocol(
     let kind = p.kind.get_ref().as_str();
     let only = |allowed: &[&str]| -> Result<(), ScenarioError> {
         let given = [
-            ("pipette_radius", p.pipette_radius.as_ref().map(|v| v.span())),
+            (
+                "pipette_radius",
+                p.pipette_radius.as_ref().map(|v| v.span()),
+            ),
             ("pinch", p.pinch.as_ref().map(|v| v.span())),
             ("elongation", p.elongation.as_ref().map(|v| v.span())),
             ("deformations", p.deformations.as_ref().map(|v| v.span())),
@@ -641,7 +675,10 @@ pub(super) fn resolve_protocol(
             return Err(ctx.invalid(
                 Some(v.span()),
                 "protocol.max_increment",
-                format!("expected a fraction of the step in (0, 1]; found {}", v.get_ref()),
+                format!(
+                    "expected a fraction of the step in (0, 1]; found {}",
+                    v.get_ref()
+                ),
             ))
         }
         v => plain(v, 0.1),
@@ -697,6 +734,11 @@ pub(super) fn resolve_protocol(
         max_increment,
         ..StepControl::default()
     };
+    // Once the tools hold the cell, the supports are released except the z-hold of the
+    // node on the +y axis: bonded patches close to the test axis (a coarse mesh, a small
+    // pipette) can leave the rotation about that axis free, which that single DOF removes.
+    // It carries (almost) no load; its reaction is reported with the others.
+    let axial_rotation_hold = vec![(SUPPORT_SETS[2].0.to_string(), SUPPORT_SETS[2].1)];
     let step = |name: &str, fixes: &[(String, [bool; 3])], tools: Vec<ToolMotion>| StepSpec {
         name: name.into(),
         control: loading,
@@ -749,10 +791,14 @@ pub(super) fn resolve_protocol(
         // Retract the moving pipette until its force is zero: the unloaded reference state.
         steps.push(step(
             "retract",
-            &[],
+            &axial_rotation_hold,
             vec![motion(&moving, approach_travel, Some(0.0))],
         ));
-        steps.push(step("stretch", &[], vec![motion(&moving, elongation, None)]));
+        steps.push(step(
+            "stretch",
+            &axial_rotation_hold,
+            vec![motion(&moving, elongation, None)],
+        ));
         ProtocolSpec::MicropipetteTension {
             moving_tool: moving,
             reference_step: 3,
@@ -789,7 +835,7 @@ pub(super) fn resolve_protocol(
             targets.push((steps.len(), *e));
             steps.push(step(
                 &format!("compress-{:.0}", 100.0 * e),
-                &[],
+                &axial_rotation_hold,
                 vec![motion(&moving, -(e - previous) * d, None)],
             ));
             previous = *e;

@@ -187,7 +187,11 @@ fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
 
 /// The default penalty of a tool on `nodes`: [`PENALTY_FACTOR`] × the largest shear
 /// modulus × the mean spacing of the contact nodes (0 when no material has a modulus).
-pub(super) fn default_penalty(materials: &[MaterialAssignment], mesh: &Mesh, nodes: &[usize]) -> f64 {
+pub(super) fn default_penalty(
+    materials: &[MaterialAssignment],
+    mesh: &Mesh,
+    nodes: &[usize],
+) -> f64 {
     PENALTY_FACTOR * largest_shear_modulus(materials) * mean_spacing(mesh, nodes)
 }
 
