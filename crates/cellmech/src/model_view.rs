@@ -30,11 +30,20 @@ fn family_color(family: &str, k: usize) -> (u8, u8, u8) {
     }
 }
 
-/// The picture of a scenario's model: the outer surface mesh and every enabled filament
-/// group, coloured by family.
+/// The picture of a scenario's model in its reference configuration: the outer surface
+/// mesh, the nucleus surface and every enabled filament group, coloured by family.
 pub fn model_picture(scenario: &Scenario) -> ModelPicture {
+    model_picture_at(scenario, &scenario.mesh.nodes, scenario.title.clone())
+}
+
+/// The same picture with the nodes at `positions` (e.g. the deformed configuration).
+pub fn model_picture_at(
+    scenario: &Scenario,
+    positions: &[[f64; 3]],
+    title: String,
+) -> ModelPicture {
     let mesh = &scenario.mesh;
-    let x = |n: usize| mesh.nodes[n];
+    let x = |n: usize| positions[n];
     let mut groups = Vec::new();
     let outlines: [(Option<&[&str]>, &str, (u8, u8, u8)); 2] = [
         (None, "surface mesh", (170, 170, 170)),
@@ -80,7 +89,7 @@ pub fn model_picture(scenario: &Scenario) -> ModelPicture {
         });
     }
     ModelPicture {
-        title: scenario.title.clone(),
+        title,
         views: vec![
             ("oblique".into(), View3d::new(-60.0, 25.0)),
             ("front (x right, z up)".into(), View3d::new(-90.0, 0.0)),

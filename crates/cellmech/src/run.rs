@@ -141,6 +141,25 @@ pub fn run(
         "fields.pvd".into(),
     ];
     files.extend(crate::plots::plot_curves(scenario, &writer, out_dir).map_err(RunError::Output)?);
+    // The last converged state as a picture (reference coordinates + displacement).
+    let deformed: Vec<[f64; 3]> = {
+        let (p, map) = (&model.problem, model.problem.dof_map());
+        (0..scenario.mesh.num_nodes())
+            .map(|n| std::array::from_fn(|c| scenario.mesh.nodes[n][c] + p.u()[map.dof(n, c)]))
+            .collect()
+    };
+    let picture = format!("deformed.{}", scenario.output.plot_format.extension());
+    let last_step = writer.stats.last().map_or("start", |s| s.name.as_str());
+    cellmech_io::plot_model_picture(
+        &out_dir.join(&picture),
+        &crate::model_view::model_picture_at(
+            scenario,
+            &deformed,
+            format!("{}: end of step '{last_step}'", scenario.title),
+        ),
+    )
+    .map_err(|e| RunError::Output(e.to_string()))?;
+    files.push(picture);
     let protocol = match &scenario.cell {
         Some(study) => crate::cell_report::write_protocol_results(
             study,
