@@ -204,7 +204,44 @@ fn default_run_without_a_scenario_writes_its_outputs() {
     assert!(o.status.success(), "{}", stderr(&o));
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    // The built-in default is the suspended-cell tensile test to 6.3 um.
     assert_eq!(summary["status"], "completed");
-    assert!(summary["final_values"]["top_fz_nN"].as_f64().unwrap() > 1.0);
-    assert!(out.join("curve.png").exists() && out.join("fields.pvd").exists());
+    assert_eq!(summary["seed"], 2024);
+    let last = &summary["protocol"]["last"];
+    assert!((last["displacement_um"].as_f64().unwrap() - 6.3).abs() < 1e-9);
+    assert!(last["force_nn"].as_f64().unwrap() > 10.0, "{last}");
+    for file in [
+        "tension.csv",
+        "tension-force.png",
+        "tension-nucleus.png",
+        "deformed.png",
+        "fields.pvd",
+        "curve.csv",
+    ] {
+        assert!(out.join(file).exists(), "{file}");
+    }
+}
+
+#[test]
+fn build_writes_the_model_without_solving() {
+    let out = scratch("build");
+    let o = cellmech(&["build", "--out", out.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["elements"], 2816);
+    let model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("model.json")).unwrap()).unwrap();
+    let terms: Vec<(String, u64)> = serde_json::from_value(model["terms"].clone()).unwrap();
+    for (name, count) in [("actin", 60), ("microtubule", 240), ("intermediate", 60)] {
+        assert!(terms.contains(&(name.to_string(), count)), "{terms:?}");
+    }
+    assert_eq!(model["seed"], 2024);
+    for file in ["model.pvd", "model_0000.vtu", "model.png"] {
+        assert!(out.join(file).exists(), "{file}");
+    }
+    let vtu = std::fs::read_to_string(out.join("model_0000.vtu")).unwrap();
+    assert!(
+        vtu.contains("axial_force_nN"),
+        "filaments are line cells with their fields"
+    );
 }
