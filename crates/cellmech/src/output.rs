@@ -24,6 +24,8 @@ pub struct StepStats {
     pub cutbacks: usize,
     /// The reasons of the cutbacks.
     pub cutback_reasons: Vec<String>,
+    /// Wall-clock seconds from the step's start to its last converged increment.
+    pub wall_time_s: f64,
 }
 
 /// Writes outputs as the solver converges increments.
@@ -45,6 +47,7 @@ pub struct OutputWriter {
     vtk_every: usize,
     attempt: usize,
     nodes: Vec<[f64; 3]>,
+    step_start: std::time::Instant,
 }
 
 impl OutputWriter {
@@ -105,6 +108,7 @@ impl OutputWriter {
             vtk_every,
             attempt: 0,
             nodes,
+            step_start: std::time::Instant::now(),
         })
     }
 
@@ -177,6 +181,7 @@ impl Observer for OutputWriter {
             ..Default::default()
         });
         self.attempt = 0;
+        self.step_start = std::time::Instant::now();
     }
 
     fn on_iteration(&mut self, r: &IterationReport) {
@@ -200,8 +205,10 @@ impl Observer for OutputWriter {
 
     fn on_increment(&mut self, problem: &Problem, report: &IncrementReport<'_>) {
         self.attempt += 1;
+        let elapsed = self.step_start.elapsed().as_secs_f64();
         if let Some(s) = self.stats.last_mut() {
             s.increments += 1;
+            s.wall_time_s = elapsed;
         }
         let step_end = (report.step_time - 1.0).abs() < 1e-12;
         let due = step_end || (self.vtk_every > 0 && report.increment % self.vtk_every == 0);
