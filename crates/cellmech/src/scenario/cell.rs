@@ -8,14 +8,13 @@
 //! step). `[families.<name>]` (`membrane`, `actin`, `microtubule`, `intermediate`) still
 //! switches components off or scales them. See `docs/suspended-cell.md`.
 
-use std::ops::Range;
-
 use cellmech_fem::contact::{ContactKind, ToolShape};
 use cellmech_fem::mesh::Mesh;
 use cellmech_fem::solve::StepControl;
 use serde::Deserialize;
 use toml::Spanned;
 
+use super::context::Ctx;
 use super::tools::{ForceTarget, ToolMotion, ToolSpec};
 use super::{MaterialAssignment, ScenarioError, StepSpec};
 use crate::cell::suspended::{
@@ -228,25 +227,7 @@ pub(super) struct ResolvedCell {
     pub study: CellStudy,
 }
 
-struct Ctx<'a> {
-    origin: &'a str,
-    text: &'a str,
-}
-
 impl Ctx<'_> {
-    fn invalid(&self, span: Option<Range<usize>>, key: &str, message: String) -> ScenarioError {
-        let line = span.filter(|s| s.end > 0).map(|s| {
-            let start = s.start.min(self.text.len());
-            self.text[..start].matches('\n').count() + 1
-        });
-        ScenarioError::Invalid {
-            path: self.origin.into(),
-            line,
-            key: key.into(),
-            message,
-        }
-    }
-
     /// A positive finite quantity, or the default.
     fn positive(
         &self,
@@ -330,11 +311,7 @@ pub(super) fn resolve_cell(
     ] {
         if let Some(v) = value {
             if *v.get_ref() == 0 {
-                return Err(ctx.invalid(
-                    Some(v.span()),
-                    key,
-                    "expected at least 1; found 0".into(),
-                ));
+                return Err(ctx.invalid(Some(v.span()), key, "expected at least 1; found 0"));
             }
             *target = *v.get_ref();
         }

@@ -5,6 +5,7 @@
 //! keys rejected, quantities with units), [`Scenario`] the total, checked result.
 
 pub mod cell;
+mod context;
 pub mod file;
 mod resolve;
 pub mod structures;

@@ -1,6 +1,5 @@
 //! Resolution of the raw file: defaults, ranges, units, and references to mesh sets.
 
-use std::ops::Range;
 use std::path::Path;
 
 use cellmech_fem::element::hex8::Hex8Formulation;
@@ -10,38 +9,11 @@ use cellmech_fem::mesh::{ElementKind, Mesh};
 use cellmech_fem::solve::{Convergence, StepControl};
 use toml::Spanned;
 
+use super::context::Ctx;
 use super::file::{MaterialSection, MeshSection, NodeSetSection, ScenarioFile, StepSection};
 use super::{
     CurveSpec, MaterialAssignment, OutputSpec, PlotFormat, Scenario, ScenarioError, StepSpec,
 };
-
-/// Context for messages: the scenario's name and text (to turn spans into lines).
-struct Ctx<'a> {
-    origin: &'a str,
-    text: &'a str,
-}
-
-impl Ctx<'_> {
-    /// 1-based line of a span's start; `None` for the empty span of a default value.
-    fn line(&self, span: Range<usize>) -> Option<usize> {
-        let start = span.start.min(self.text.len());
-        (span.end > 0).then(|| self.text[..start].matches('\n').count() + 1)
-    }
-
-    fn invalid(
-        &self,
-        span: Option<Range<usize>>,
-        key: &str,
-        message: impl Into<String>,
-    ) -> ScenarioError {
-        ScenarioError::Invalid {
-            path: self.origin.into(),
-            line: span.and_then(|s| self.line(s)),
-            key: key.into(),
-            message: message.into(),
-        }
-    }
-}
 
 /// Resolves a parsed file into a [`Scenario`].
 pub fn resolve(

@@ -13,6 +13,7 @@ use cellmech_fem::mesh::{ElementKind, Mesh};
 use serde::Deserialize;
 use toml::Spanned;
 
+use super::context::Ctx;
 use super::ScenarioError;
 use crate::units::{Length, Pressure, Ratio};
 
@@ -148,27 +149,6 @@ impl StructuresSpec {
     }
 }
 
-/// Messages with file, line and key.
-struct Ctx<'a> {
-    origin: &'a str,
-    text: &'a str,
-}
-
-impl Ctx<'_> {
-    fn invalid(&self, span: Option<Range<usize>>, key: &str, message: String) -> ScenarioError {
-        let line = span.filter(|s| s.end > 0).map(|s| {
-            let start = s.start.min(self.text.len());
-            self.text[..start].matches('\n').count() + 1
-        });
-        ScenarioError::Invalid {
-            path: self.origin.into(),
-            line,
-            key: key.into(),
-            message,
-        }
-    }
-}
-
 fn valid_family_name(name: &str) -> bool {
     !name.is_empty()
         && name
@@ -253,7 +233,7 @@ fn resolve_filament(
         return Err(ctx.invalid(
             Some(s.name.span()),
             &key("name"),
-            "expected a non-empty name".into(),
+            "expected a non-empty name",
         ));
     }
     let family = s
@@ -276,7 +256,7 @@ fn resolve_filament(
         ctx.invalid(
             Some(s.name.span()),
             &key("youngs_modulus"),
-            "a filament needs `youngs_modulus` (e.g. \"2.6 GPa\")".into(),
+            "a filament needs `youngs_modulus` (e.g. \"2.6 GPa\")",
         )
     })?;
     let e = modulus.get_ref().0;
@@ -292,8 +272,7 @@ fn resolve_filament(
             Some(s.name.span()),
             &key("diameter"),
             "a filament needs a section: `diameter` (e.g. \"7 nm\"), and `inner_diameter` for \
-             a tube"
-                .into(),
+             a tube",
         )
     })?;
     let d = diameter.get_ref().0;
@@ -324,7 +303,7 @@ fn resolve_filament(
                 return Err(ctx.invalid(
                     Some(nu.span()),
                     &key("poisson_ratio"),
-                    "`poisson_ratio` applies to beams only (a truss has no shear)".into(),
+                    "`poisson_ratio` applies to beams only (a truss has no shear)",
                 ));
             }
             let area = match inner {
@@ -365,8 +344,7 @@ fn resolve_filament(
                         Some(sl.span()),
                         &key("slack"),
                         "a slack (wavy) filament carries no compression: add \
-                         `tension_only = true`"
-                            .into(),
+                         `tension_only = true`",
                     ));
                 }
             }
@@ -453,7 +431,7 @@ fn filament_pairs(
         return Err(ctx.invalid(
             span,
             &key("snap_tolerance"),
-            "`snap_tolerance` applies to `points` only".into(),
+            "`snap_tolerance` applies to `points` only",
         ));
     }
     let n = mesh.num_nodes();
@@ -523,7 +501,7 @@ fn filament_pairs(
         return Err(ctx.invalid(
             Some(span),
             &key(source),
-            "expected at least one element; found none".into(),
+            "expected at least one element; found none",
         ));
     }
     for (e, &[a, b]) in pairs.iter().enumerate() {
@@ -648,7 +626,7 @@ fn resolve_membrane(
             return Err(ctx.invalid(
                 Some(s.name.span()),
                 &key("surface"),
-                "give exactly one of `surface = \"outer\"` or `node_set = \"...\"`".into(),
+                "give exactly one of `surface = \"outer\"` or `node_set = \"...\"`",
             ))
         }
     };
@@ -656,7 +634,7 @@ fn resolve_membrane(
         return Err(ctx.invalid(
             Some(s.name.span()),
             &key("surface"),
-            "the surface has no boundary quad faces of hex8 elements; found none".into(),
+            "the surface has no boundary quad faces of hex8 elements; found none",
         ));
     }
     let shear_modulus = match (&s.shear_modulus, &s.youngs_modulus) {
@@ -666,14 +644,14 @@ fn resolve_membrane(
             return Err(ctx.invalid(
                 Some(g.span()),
                 &key("shear_modulus"),
-                "give `shear_modulus` or `youngs_modulus` (E = 3G), not both".into(),
+                "give `shear_modulus` or `youngs_modulus` (E = 3G), not both",
             ))
         }
         (None, None) => {
             return Err(ctx.invalid(
                 Some(s.name.span()),
                 &key("shear_modulus"),
-                "a membrane needs `shear_modulus` (or `youngs_modulus`, E = 3G)".into(),
+                "a membrane needs `shear_modulus` (or `youngs_modulus`, E = 3G)",
             ))
         }
     };
@@ -688,7 +666,7 @@ fn resolve_membrane(
         ctx.invalid(
             Some(s.name.span()),
             &key("thickness"),
-            "a membrane needs `thickness` (e.g. \"10 nm\")".into(),
+            "a membrane needs `thickness` (e.g. \"10 nm\")",
         )
     })?;
     let h = thickness.get_ref().0;

@@ -17,13 +17,12 @@
 //! * `until_force` tolerance = [`FORCE_TOLERANCE_FACTOR`] × G_max × diagonal², a force scale
 //!   of the whole body.
 
-use std::ops::Range;
-
 use cellmech_fem::contact::{ContactKind, ToolShape};
 use cellmech_fem::mesh::Mesh;
 use serde::Deserialize;
 use toml::Spanned;
 
+use super::context::Ctx;
 use super::{MaterialAssignment, ScenarioError};
 use crate::units::{Force, Length, Stiffness};
 
@@ -118,29 +117,6 @@ pub struct ForceTarget {
     pub tolerance: f64,
 }
 
-/// Messages with file, line and key.
-pub(super) struct ToolCtx<'a> {
-    /// Scenario name.
-    pub origin: &'a str,
-    /// Scenario text.
-    pub text: &'a str,
-}
-
-impl ToolCtx<'_> {
-    fn invalid(&self, span: Option<Range<usize>>, key: &str, message: String) -> ScenarioError {
-        let line = span.filter(|s| s.end > 0).map(|s| {
-            let start = s.start.min(self.text.len());
-            self.text[..start].matches('\n').count() + 1
-        });
-        ScenarioError::Invalid {
-            path: self.origin.into(),
-            line,
-            key: key.into(),
-            message,
-        }
-    }
-}
-
 fn largest_shear_modulus(materials: &[MaterialAssignment]) -> f64 {
     materials
         .iter()
@@ -202,7 +178,7 @@ pub(super) fn default_tolerance(mesh: &Mesh) -> f64 {
 
 /// Resolves the `[[tool]]` sections against the mesh and materials.
 pub(super) fn resolve_tools(
-    ctx: &ToolCtx,
+    ctx: &Ctx,
     sections: &[ToolSection],
     mesh: &Mesh,
     materials: &[MaterialAssignment],
@@ -215,7 +191,7 @@ pub(super) fn resolve_tools(
             return Err(ctx.invalid(
                 Some(s.name.span()),
                 &key("name"),
-                "expected a non-empty tool name; found \"\"".into(),
+                "expected a non-empty tool name; found \"\"",
             ));
         }
         if tools.iter().any(|t| t.name == name) {
@@ -372,8 +348,7 @@ pub(super) fn resolve_tools(
                         Some(s.name.span()),
                         &key("penalty"),
                         "no material gives a shear modulus to choose the default penalty from; \
-                         give `penalty = \"1 nN/um\"`"
-                            .into(),
+                         give `penalty = \"1 nN/um\"`",
                     ));
                 }
                 default_penalty(materials, mesh, nodes)
@@ -424,7 +399,7 @@ pub(super) fn resolve_tools(
 
 /// Resolves the `[[step.tool]]` entries of step `i`.
 pub(super) fn resolve_step_tools(
-    ctx: &ToolCtx,
+    ctx: &Ctx,
     i: usize,
     sections: &[StepToolSection],
     tools: &[ToolSpec],
@@ -462,7 +437,7 @@ pub(super) fn resolve_step_tools(
                     return Err(ctx.invalid(
                         Some(t.span()),
                         &key("force_tolerance"),
-                        "`force_tolerance` applies only with `until_force`".into(),
+                        "`force_tolerance` applies only with `until_force`",
                     ));
                 }
                 None
@@ -544,7 +519,7 @@ pub fn tool_program(tool: &str, steps: &[Vec<ToolMotion>]) -> Vec<[f64; 3]> {
 /// moves: the smallest gap of its contact nodes (in their reference position) must not
 /// exceed the tool's travel towards the body in that step.
 pub(super) fn check_reach(
-    ctx: &ToolCtx,
+    ctx: &Ctx,
     tools: &[ToolSpec],
     step_names: &[String],
     motions: &[Vec<ToolMotion>],
@@ -616,7 +591,7 @@ pub(super) fn resolve(
     materials: &[MaterialAssignment],
     mut steps: Vec<super::StepSpec>,
 ) -> Result<(Vec<ToolSpec>, Vec<super::StepSpec>), ScenarioError> {
-    let ctx = ToolCtx { origin, text };
+    let ctx = Ctx { origin, text };
     let tools = resolve_tools(&ctx, &raw.tools, mesh, materials)?;
     for (i, (spec, section)) in steps.iter_mut().zip(&raw.steps).enumerate() {
         spec.tools = resolve_step_tools(&ctx, i, &section.tool, &tools, mesh, materials)?;
