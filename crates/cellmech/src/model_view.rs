@@ -1,6 +1,6 @@
 //! Looking at a model before solving it (`cellmech build`): the model in its reference
 //! state as a ParaView file (`model.pvd` + `model_0000.vtu`: continuum, membrane and line
-//! cells with their fields), a picture made by the program (`model.png`: the surface mesh
+//! cells with their fields, node sets as 0/1 point fields `set_<name>`), a picture made by the program (`model.png`: the surface mesh
 //! in grey and each filament family in its colour, in an oblique and a front view), and
 //! `model.json` (sizes, node and element sets, the cell model's parameters and geometry
 //! quality).
@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use cellmech_fem::mesh::surface::boundary_quads;
-use cellmech_io::{plot_model_picture, LineGroup, ModelPicture, PvdSeries, View3d};
+use cellmech_io::{plot_model_picture, Field, LineGroup, ModelPicture, PvdSeries, View3d};
 use serde::Serialize;
 
 use crate::model::BuiltModel;
@@ -123,7 +123,22 @@ pub fn write_model(
 ) -> Result<Vec<String>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let mut pvd = PvdSeries::new(dir, "model").map_err(|e| e.to_string())?;
-    crate::output::write_frame(&mut pvd, 0.0, &model.problem, &scenario.mesh.nodes)?;
+    // Node sets as 0/1 point fields `set_<name>` (the 30 one-node `fa_<k>` sets are covered
+    // by `set_focal_adhesions`).
+    let sets = scenario
+        .mesh
+        .node_sets
+        .iter()
+        .filter(|(name, _)| !(name.starts_with("fa_") && name[3..].parse::<usize>().is_ok()))
+        .map(|(name, nodes)| {
+            let mut flag = vec![0.0; scenario.mesh.num_nodes()];
+            for &n in nodes {
+                flag[n] = 1.0;
+            }
+            Field::new(format!("set_{name}"), 1, flag)
+        })
+        .collect();
+    crate::output::write_frame(&mut pvd, 0.0, &model.problem, &scenario.mesh.nodes, sets)?;
     let picture = format!("model.{}", scenario.output.plot_format.extension());
     plot_model_picture(&dir.join(&picture), &model_picture(scenario)).map_err(|e| e.to_string())?;
     let p = &model.problem;

@@ -162,7 +162,7 @@ impl OutputWriter {
         self.record(result);
         self.rows.push(row);
         if with_frame {
-            let result = write_frame(&mut self.pvd, time, problem, &self.nodes);
+            let result = write_frame(&mut self.pvd, time, problem, &self.nodes, Vec::new());
             self.record(result);
         }
     }
@@ -231,13 +231,14 @@ impl Observer for OutputWriter {
 }
 
 /// Writes the current state as one frame of the series: reference points with the
-/// displacement field (use ParaView's "Warp By Vector"), and every term's cells with their
-/// fields.
+/// displacement field (use ParaView's "Warp By Vector") and any `extra` point fields, and
+/// every term's cells with their fields.
 pub fn write_frame(
     pvd: &mut PvdSeries,
     time: f64,
     problem: &Problem,
     nodes: &[[f64; 3]],
+    extra: Vec<Field>,
 ) -> Result<(), String> {
     let map = problem.dof_map();
     let displacement: Vec<f64> = (0..nodes.len())
@@ -265,7 +266,9 @@ pub fn write_frame(
     let frame = VtuFrame {
         points: nodes,
         blocks,
-        point_data: vec![Field::new("displacement_um", 3, displacement)],
+        point_data: std::iter::once(Field::new("displacement_um", 3, displacement))
+            .chain(extra)
+            .collect(),
     };
     pvd.add_frame(time, &frame)
         .map(|_| ())
