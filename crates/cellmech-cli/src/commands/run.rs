@@ -71,8 +71,40 @@ fn report(args: &RunArgs, summary: &RunSummary) {
         "{}: {} increments, {} Newton iterations, {:.2} s ({} dofs)",
         summary.status, increments, iterations, summary.wall_time_s, summary.size.dofs
     );
-    for (name, value) in &summary.final_values {
-        eprintln!("  {name} = {value:.6}");
+    match &summary.protocol {
+        // A cell protocol: its own results, not every column of curve.csv.
+        Some(p) => {
+            if let Some(f) = p.reference_force_nn {
+                eprintln!("  force at the reference/contact state: {f:.4} nN");
+            }
+            for (target, point) in &p.at_deformations {
+                eprintln!(
+                    "  at {:.0} % deformation: force {:.2} nN, nucleus aspect ratio {:.3}, nucleus max log strain {:.3}",
+                    100.0 * target,
+                    point.force_nn,
+                    point.nucleus_aspect_ratio,
+                    point.nucleus_max_principal_log_strain
+                );
+            }
+            if let Some(last) = &p.last {
+                eprintln!(
+                    "  last point: travel {:.3} um, force {:.2} nN, normalised stiffness {:.3} kPa, nucleus aspect ratio {:.3}, nucleus max log strain {:.3}",
+                    last.displacement_um,
+                    last.force_nn,
+                    last.normalised_stiffness_kpa,
+                    last.nucleus_aspect_ratio,
+                    last.nucleus_max_principal_log_strain
+                );
+            }
+            if let Some(r) = p.support_reaction_max_nn {
+                eprintln!("  largest support reaction: {r:.2e} nN");
+            }
+        }
+        None => {
+            for (name, value) in &summary.final_values {
+                eprintln!("  {name} = {value:.6}");
+            }
+        }
     }
     eprintln!("outputs in {}:", args.out.display());
     for f in &summary.files {
