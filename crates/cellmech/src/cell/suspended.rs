@@ -203,6 +203,19 @@ fn positive(component: &'static str, what: &str, value: f64) -> Result<f64, Cell
     }
 }
 
+/// A tension-only truss law of a solid circular section (checked positive).
+fn tension_only_law(
+    component: &'static str,
+    youngs_modulus: f64,
+    diameter: f64,
+) -> Result<AxialLaw, CellModelError> {
+    let area = AxialLaw::solid_circle_area(positive(component, "diameter", diameter)?);
+    Ok(AxialLaw::tension_only(
+        positive(component, "Young's modulus", youngs_modulus)?,
+        area,
+    ))
+}
+
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -240,12 +253,8 @@ pub fn suspended_cell_parts(
         enabled: components.membrane,
     });
     let a = m.actin;
-    let area = AxialLaw::solid_circle_area(positive("actin", "diameter", a.diameter)?);
-    let actin = AxialLaw::tension_only(
-        positive("actin", "Young's modulus", a.youngs_modulus)?,
-        area,
-    )
-    .with_prestrain(a.prestrain);
+    let actin =
+        tension_only_law("actin", a.youngs_modulus, a.diameter)?.with_prestrain(a.prestrain);
     structures.filaments.push(FilamentSpec {
         name: family::ACTIN.into(),
         family: family::ACTIN.into(),
@@ -272,12 +281,7 @@ pub fn suspended_cell_parts(
         enabled: components.microtubules,
     });
     let i = m.intermediate;
-    let area = AxialLaw::solid_circle_area(positive("intermediate", "diameter", i.diameter)?);
-    let law = AxialLaw::tension_only(
-        positive("intermediate", "Young's modulus", i.youngs_modulus)?,
-        area,
-    )
-    .with_slack(i.slack);
+    let law = tension_only_law("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack);
     structures.filaments.push(FilamentSpec {
         name: family::INTERMEDIATE.into(),
         family: family::INTERMEDIATE.into(),
