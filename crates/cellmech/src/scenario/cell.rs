@@ -603,7 +603,7 @@ pub(super) fn resolve_protocol(
         .iter()
         .map(|(s, c)| (s.to_string(), *c))
         .collect();
-    let mut prestress = StepSpec {
+    let prestress = StepSpec {
         name: "prestress".into(),
         control: StepControl {
             initial_increment: 0.1,
@@ -735,7 +735,6 @@ pub(super) fn resolve_protocol(
             motion(&moving, -approach_travel, Some(contact_force)),
         ],
     );
-    prestress.tools = Vec::new();
     let mut steps = vec![prestress, approach];
     let spec = if tension {
         let pinch = ctx.positive(&p.pinch, "protocol.pinch", 1.0)?;
