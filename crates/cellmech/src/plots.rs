@@ -15,7 +15,7 @@ pub fn plot_curves(
     writer: &OutputWriter,
     dir: &Path,
 ) -> Result<Vec<String>, String> {
-    let extension = scenario.output.plot_format.extension();
+    let extension = scenario.model.output.plot_format.extension();
     let mut files = Vec::new();
     let mut plot =
         |file: String, x_label: &str, y_label: &str, x: Vec<f64>, y: Vec<f64>, label: &str| {
@@ -33,7 +33,7 @@ pub fn plot_curves(
             files.push(file);
             Ok::<(), String>(())
         };
-    for (k, curve) in scenario.output.curves.iter().enumerate() {
+    for (k, curve) in scenario.model.output.curves.iter().enumerate() {
         let c = ["x", "y", "z"][curve.component];
         let (Some(u), Some(f)) = (
             writer.column(&format!("{}_u{c}_um", curve.name)),
@@ -56,8 +56,8 @@ pub fn plot_curves(
             &curve.name,
         )?;
     }
-    for tool in &scenario.tools {
-        let Some(dir) = crate::model_tools::push_direction(scenario, &tool.name) else {
+    for tool in &scenario.model.tools {
+        let Some(dir) = crate::model::tools::push_direction(&scenario.model, &tool.name) else {
             continue;
         };
         let column = |q: &str| {

@@ -115,12 +115,12 @@ pub fn run(
     let start = Instant::now();
     std::fs::create_dir_all(out_dir)
         .map_err(|e| RunError::Output(format!("cannot create {}: {e}", out_dir.display())))?;
-    let mut model = build(scenario)?;
+    let mut model = build(&scenario.model)?;
     let mut writer = OutputWriter::new(
         out_dir,
         &model,
-        scenario.mesh.nodes.clone(),
-        scenario.output.vtk_every,
+        scenario.model.mesh.nodes.clone(),
+        scenario.model.output.vtk_every,
     )
     .map_err(RunError::Output)?;
     writer.record_state(&model.problem, 0, 0, 0.0, true);
@@ -144,16 +144,16 @@ pub fn run(
     // The last converged state as a picture (reference coordinates + displacement).
     let deformed: Vec<[f64; 3]> = {
         let (p, map) = (&model.problem, model.problem.dof_map());
-        (0..scenario.mesh.num_nodes())
-            .map(|n| std::array::from_fn(|c| scenario.mesh.nodes[n][c] + p.u()[map.dof(n, c)]))
+        (0..scenario.model.mesh.num_nodes())
+            .map(|n| std::array::from_fn(|c| scenario.model.mesh.nodes[n][c] + p.u()[map.dof(n, c)]))
             .collect()
     };
-    let picture = format!("deformed.{}", scenario.output.plot_format.extension());
+    let picture = format!("deformed.{}", scenario.model.output.plot_format.extension());
     let last_step = writer.stats.last().map_or("start", |s| s.name.as_str());
     cellmech_io::plot_model_picture(
         &out_dir.join(&picture),
-        &crate::model_view::model_picture_at(
-            scenario,
+        &crate::model::view::model_picture_at(
+            &scenario.model,
             &deformed,
             format!("{}: end of step '{last_step}'", scenario.title),
         ),
@@ -165,7 +165,7 @@ pub fn run(
             study,
             &writer,
             out_dir,
-            scenario.output.plot_format.extension(),
+            scenario.model.output.plot_format.extension(),
         )
         .map_err(RunError::Output)?,
         None => None,
@@ -188,8 +188,8 @@ pub fn run(
         cell: scenario.cell.clone(),
         protocol,
         size: SystemSize {
-            nodes: scenario.mesh.num_nodes(),
-            elements: scenario.mesh.num_elements(),
+            nodes: scenario.model.mesh.num_nodes(),
+            elements: scenario.model.mesh.num_elements(),
             dofs: model.problem.dof_map().num_dofs(),
             tangent_nonzeros: model.problem.assembler().pattern().nnz(),
         },

@@ -22,7 +22,7 @@ fn temp_dir(name: &str) -> PathBuf {
 
 /// Builds and runs every step; returns the problem at the end.
 fn solve(s: &Scenario) -> Problem {
-    let mut model = build(s).unwrap_or_else(|e| panic!("{e}"));
+    let mut model = build(&s.model).unwrap_or_else(|e| panic!("{e}"));
     for step in &model.steps {
         model
             .problem
@@ -139,7 +139,7 @@ fn cable_ea() -> f64 {
 
 fn prestressed_sphere(families: &str) -> (Scenario, Vec<[usize; 2]>) {
     let base = scenario(&format!("{SPHERE}{SUPPORTS}"));
-    let (points, pairs) = icosahedron_points(&base.mesh.nodes, &base.mesh.node_sets["surface"]);
+    let (points, pairs) = icosahedron_points(&base.model.mesh.nodes, &base.model.mesh.node_sets["surface"]);
     let text = format!(
         r#"{SPHERE}
 [[filament]]
@@ -161,10 +161,10 @@ tension_only = true
 fn structures_prestressed_sphere_finds_its_self_equilibrium_with_unloaded_supports() {
     let (s, pairs) = prestressed_sphere("");
     for set in ["a", "b", "c"] {
-        assert_eq!(s.mesh.node_sets[set].len(), 1, "support {set} is one node");
+        assert_eq!(s.model.mesh.node_sets[set].len(), 1, "support {set} is one node");
     }
     assert_eq!(
-        s.structures.filaments[0].pairs, pairs,
+        s.model.structures.filaments[0].pairs, pairs,
         "points snapped to the FA nodes"
     );
     let problem = solve(&s);
@@ -174,7 +174,7 @@ fn structures_prestressed_sphere_finds_its_self_equilibrium_with_unloaded_suppor
     let map = problem.dof_map();
     let mut largest: f64 = 0.0;
     for (set, comps) in [("a", 0..3), ("b", 1..3), ("c", 2..3)] {
-        let node = s.mesh.node_sets[set][0];
+        let node = s.model.mesh.node_sets[set][0];
         for c in comps {
             largest = largest.max(problem.reaction(map.dof(node, c)).abs());
         }
@@ -199,7 +199,7 @@ fn structures_prestressed_sphere_finds_its_self_equilibrium_with_unloaded_suppor
     let radial: f64 = fa
         .iter()
         .map(|&n| {
-            let x = s.mesh.nodes[n];
+            let x = s.model.mesh.nodes[n];
             let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
             (0..3)
                 .map(|c| problem.u()[map.dof(n, c)] * x[c] / r)
@@ -215,7 +215,7 @@ fn structures_prestressed_sphere_finds_its_self_equilibrium_with_unloaded_suppor
 
     // The same model with the family switched off: nothing moves, no cable columns.
     let (off, _) = prestressed_sphere("[families.cables]\nenabled = false\n");
-    assert!(!off.structures.filaments[0].enabled);
+    assert!(!off.model.structures.filaments[0].enabled);
     let problem = solve(&off);
     assert!(problem.u().iter().all(|&u| u == 0.0));
     assert_eq!(scalar(&problem, "cables_axial_force_max_nN"), None);
@@ -225,7 +225,7 @@ fn structures_prestressed_sphere_finds_its_self_equilibrium_with_unloaded_suppor
     // initial geometry; the solution pulls less than that.
     let (scaled, _) =
         prestressed_sphere("[families.cables]\nmodulus_scale = 1.5\nprestrain = \"12%\"\n");
-    match &scaled.structures.filaments[0].element {
+    match &scaled.model.structures.filaments[0].element {
         cellmech::scenario::structures::FilamentElement::Truss(law) => {
             assert!((law.youngs_modulus - 30.0).abs() < 1e-12);
             assert_eq!(law.prestrain, 0.12);
@@ -371,11 +371,11 @@ reverse_sign = true
 #[test]
 fn structures_beam_family_on_and_off_both_solve_and_add_exactly_their_axial_forces() {
     let base = scenario(&format!("{SPHERE}{CAPS}"));
-    let nodes = &base.mesh.nodes;
+    let nodes = &base.model.mesh.nodes;
     // A fan of beams from the top pole to every bottom-cap node: the shared pole couples
     // their rotations (a lone straight beam between held nodes could spin about its axis).
-    let bottom = &base.mesh.node_sets["bottom"];
-    let pole = base.mesh.node_sets["top_pole"][0];
+    let bottom = &base.model.mesh.node_sets["bottom"];
+    let pole = base.model.mesh.node_sets["top_pole"][0];
     let pairs: Vec<[usize; 2]> = bottom.iter().map(|&b| [pole, b]).collect();
     assert!(pairs.len() >= 5, "{} beams", pairs.len());
     let with = |families: &str| {
@@ -396,7 +396,7 @@ inner_diameter = "17 nm"
     let on = with("");
     let off = with("[families.microtubule]\nenabled = false");
     let plain = solve(&base);
-    let n = base.mesh.num_nodes();
+    let n = base.model.mesh.num_nodes();
     assert_eq!(plain.dof_map().num_dofs(), 3 * n);
     let p_on = solve(&on);
     assert_eq!(
@@ -412,7 +412,7 @@ inner_diameter = "17 nm"
     );
     let top = |p: &Problem, s: &Scenario| {
         -p.reaction_sum(
-            s.mesh.node_sets["top"]
+            s.model.mesh.node_sets["top"]
                 .iter()
                 .map(|&t| p.dof_map().dof(t, 2)),
         )
@@ -468,13 +468,13 @@ thickness = "0.2 um"
         ))
     };
     let on = membrane("");
-    assert_eq!(on.structures.membranes[0].faces.len(), 6 * 4 * 4);
-    assert!((on.structures.membranes[0].shear_modulus - 2.0 / 3.0).abs() < 1e-12);
+    assert_eq!(on.model.structures.membranes[0].faces.len(), 6 * 4 * 4);
+    assert!((on.model.structures.membranes[0].shear_modulus - 2.0 / 3.0).abs() < 1e-12);
     let base = scenario(&format!("{SPHERE}{CAPS}"));
     let top = |s: &Scenario| {
         let p = solve(s);
         -p.reaction_sum(
-            s.mesh.node_sets["top"]
+            s.model.mesh.node_sets["top"]
                 .iter()
                 .map(|&t| p.dof_map().dof(t, 2)),
         )
@@ -521,7 +521,7 @@ tension_only = true
   node_set = "bottom"
 "#;
     let s = parse(text, "cube.toml", &dir).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(s.structures.filaments[0].pairs.len(), 2);
+    assert_eq!(s.model.structures.filaments[0].pairs.len(), 2);
     let p = solve(&s);
     let n0 = 100.0 * std::f64::consts::PI * 0.01 / 4.0 * 0.1;
     let max = scalar(&p, "actin_axial_force_max_nN").unwrap();
@@ -671,7 +671,7 @@ shear_modulus = "0.17 kPa"
 bulk_modulus = "17 kPa"
 "#;
     let base = scenario(&format!("{sphere}{CAPS}"));
-    let surface = &base.mesh.node_sets["surface"];
+    let surface = &base.model.mesh.node_sets["surface"];
     let mut state: u64 = 0x5eed;
     let mut next = |n: usize| {
         state = state
@@ -699,7 +699,7 @@ diameter = "0.1 um"
     ));
     // The same count of short cables: each between a random surface node and a random
     // surface node within 4 µm (local couplings, like a cortical network).
-    let nodes = &base.mesh.nodes;
+    let nodes = &base.model.mesh.nodes;
     let mut local = Vec::new();
     while local.len() < 2000 {
         let a = surface[next(surface.len())];
@@ -729,7 +729,7 @@ diameter = "0.1 um"
         ("continuum + 2000 random chords", &with),
         ("continuum + 2000 local cables", &with_local),
     ] {
-        let mut model = build(s).unwrap();
+        let mut model = build(&s.model).unwrap();
         let mut counter = Counter(0);
         let start = std::time::Instant::now();
         for step in &model.steps {
@@ -744,7 +744,7 @@ diameter = "0.1 um"
             .unwrap_or_default();
         println!(
             "{label}: {} elements, {} dofs, nnz {nnz}, {} iterations, {t:.2} s, {:.3} s/iteration, timings {:?}, factor {fill}",
-            s.mesh.num_elements(),
+            s.model.mesh.num_elements(),
             model.problem.dof_map().num_dofs(),
             counter.0,
             t / counter.0 as f64,
@@ -775,7 +775,7 @@ impl cellmech_fem::solve::Observer for Counter {
 fn structures_prestressed_sphere_example_reaches_its_equilibrium() {
     let example = cellmech::examples::find("prestressed-sphere").unwrap();
     let s = cellmech::examples::scenario(example).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(s.structures.filaments[0].pairs.len(), 24);
+    assert_eq!(s.model.structures.filaments[0].pairs.len(), 24);
     let start = std::time::Instant::now();
     let problem = solve(&s);
     let elapsed = start.elapsed().as_secs_f64();
@@ -786,7 +786,7 @@ fn structures_prestressed_sphere_example_reaches_its_equilibrium() {
     let map = problem.dof_map();
     let mut largest: f64 = 0.0;
     for (set, comps) in [("a", 0..3), ("b", 1..3), ("c", 2..3)] {
-        let node = s.mesh.node_sets[set][0];
+        let node = s.model.mesh.node_sets[set][0];
         for c in comps {
             largest = largest.max(problem.reaction(map.dof(node, c)).abs());
         }

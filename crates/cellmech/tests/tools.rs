@@ -190,11 +190,11 @@ fn error_of(text: &str) -> String {
 #[test]
 fn the_base_tool_scenario_resolves_with_documented_defaults() {
     let s = parse(BASE, "base.toml", Path::new(".")).unwrap();
-    let t = &s.tools[0];
+    let t = &s.model.tools[0];
     // Penalty 50 x G x spacing (1 um), tolerance 1e-4 x diagonal (2 sqrt 3 um).
     assert!((t.penalty - 50.0).abs() < 1e-12, "{}", t.penalty);
     assert!((t.tolerance - 1e-4 * 12f64.sqrt()).abs() < 1e-15);
-    assert_eq!(s.steps[0].tools[0].movement, [0.0, 0.0, -0.5]);
+    assert_eq!(s.model.steps[0].tools[0].movement, [0.0, 0.0, -0.5]);
 }
 
 #[test]

@@ -12,9 +12,26 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("reading scenario {}", path.display()))?,
         None => cellmech::examples::default_scenario().context("the built-in default scenario")?,
     };
-    let model = cellmech::model::build(&scenario)
+    let model = cellmech::model::build(&scenario.model)
         .with_context(|| format!("building the model of {}", scenario.origin))?;
-    let files = cellmech::model_view::write_model(&scenario, &model, &args.out)
+    let cell_json = scenario
+        .cell
+        .as_ref()
+        .map(|c| serde_json::to_value(c))
+        .transpose()
+        .context("describing the cell")?;
+    let files = cellmech::model::view::write_model(
+        &scenario.model,
+        &model,
+        &cellmech::model::view::ModelAbout {
+            title: &scenario.title,
+            origin: &scenario.origin,
+            seed: scenario.cell.as_ref().map(|c| c.seed),
+            cell: cell_json.as_ref(),
+            plot_format: scenario.model.output.plot_format,
+        },
+        &args.out,
+    )
         .map_err(anyhow::Error::msg)
         .with_context(|| format!("writing the model into {}", args.out.display()))?;
     let paths: Vec<String> = files
@@ -24,8 +41,8 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
     if args.report.json {
         let value = serde_json::json!({
             "scenario": scenario.origin,
-            "nodes": scenario.mesh.num_nodes(),
-            "elements": scenario.mesh.num_elements(),
+            "nodes": scenario.model.mesh.num_nodes(),
+            "elements": scenario.model.mesh.num_elements(),
             "dofs": model.problem.dof_map().num_dofs(),
             "files": paths,
         });
@@ -34,8 +51,8 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
         println!(
             "{}: {} nodes, {} hex8, {} DOFs",
             scenario.origin,
-            scenario.mesh.num_nodes(),
-            scenario.mesh.num_elements(),
+            scenario.model.mesh.num_nodes(),
+            scenario.model.mesh.num_elements(),
             model.problem.dof_map().num_dofs()
         );
         for p in paths {

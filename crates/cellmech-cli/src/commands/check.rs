@@ -9,10 +9,10 @@ use crate::args::CheckArgs;
 pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = cellmech::scenario::load(&args.scenario)
         .with_context(|| format!("checking scenario {}", args.scenario.display()))?;
-    cellmech::model::build(&scenario)
+    cellmech::model::build(&scenario.model)
         .with_context(|| format!("building the model of {}", scenario.origin))?;
     let blocks: Vec<_> = scenario
-        .mesh
+        .model.mesh
         .blocks
         .iter()
         .map(|b| (b.name.clone(), b.len()))
@@ -21,23 +21,23 @@ pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
         let value = serde_json::json!({
             "scenario": scenario.origin,
             "valid": true,
-            "nodes": scenario.mesh.num_nodes(),
+            "nodes": scenario.model.mesh.num_nodes(),
             "element_sets": blocks,
-            "node_sets": scenario.mesh.node_sets.keys().collect::<Vec<_>>(),
-            "steps": scenario.steps.iter().map(|s| &s.name).collect::<Vec<_>>(),
+            "node_sets": scenario.model.mesh.node_sets.keys().collect::<Vec<_>>(),
+            "steps": scenario.model.steps.iter().map(|s| &s.name).collect::<Vec<_>>(),
         });
         println!("{value}");
     } else if !args.report.quiet {
         println!("{}: valid", scenario.origin);
         println!(
             "  mesh: {} nodes, {} elements",
-            scenario.mesh.num_nodes(),
-            scenario.mesh.num_elements()
+            scenario.model.mesh.num_nodes(),
+            scenario.model.mesh.num_elements()
         );
         for (name, n) in &blocks {
             println!("  element set {name}: {n} elements");
         }
-        let steps: Vec<&str> = scenario.steps.iter().map(|s| s.name.as_str()).collect();
+        let steps: Vec<&str> = scenario.model.steps.iter().map(|s| s.name.as_str()).collect();
         println!("  steps: {}", steps.join(", "));
     }
     Ok(ExitCode::SUCCESS)

@@ -24,7 +24,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             scenario.origin
         );
     }
-    let mut progress = StepProgress::new(scenario.steps.len());
+    let mut progress = StepProgress::new(scenario.model.steps.len());
     let mut null = NullObserver;
     let observer: &mut dyn cellmech_fem::solve::Observer =
         if quiet { &mut null } else { &mut progress };

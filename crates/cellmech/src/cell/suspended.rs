@@ -326,7 +326,7 @@ pub fn build_suspended_cell(
 ) -> Result<SuspendedCellModel, CellModelError> {
     let parts = suspended_cell_parts(params, materials, components)?;
     let mesh = parts.mesh;
-    let dof_map = DofMap::with_counts(&crate::model_structures::dofs_per_node(
+    let dof_map = DofMap::with_counts(&crate::model::structures::dofs_per_node(
         mesh.num_nodes(),
         &parts.structures,
     ));
@@ -343,7 +343,7 @@ pub fn build_suspended_cell(
         terms.push(Box::new(term));
     }
     terms.extend(
-        crate::model_structures::structure_terms(&mesh, &parts.structures, &dof_map)
+        crate::model::structures::structure_terms(&mesh, &parts.structures, &dof_map)
             .map_err(component("structures"))?,
     );
     let supports = SUPPORT_SETS

@@ -13,10 +13,9 @@ pub mod tools;
 
 use std::path::{Path, PathBuf};
 
-use cellmech_fem::element::hex8::Hex8Formulation;
-use cellmech_fem::material::NeoHookean;
-use cellmech_fem::mesh::Mesh;
-use cellmech_fem::solve::StepControl;
+pub use crate::model::{
+    CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
+};
 
 pub use resolve::resolve;
 
@@ -27,93 +26,12 @@ pub struct Scenario {
     pub title: String,
     /// Where the scenario came from (a path or `<built-in: name>`).
     pub origin: String,
-    /// The mesh with its element and node sets.
-    pub mesh: Mesh,
-    /// Material of every element set, in mesh block order.
-    pub materials: Vec<MaterialAssignment>,
-    /// Filaments, membranes and family switches (see [`structures`]).
-    pub structures: structures::StructuresSpec,
-    /// Analysis steps in order.
-    pub steps: Vec<StepSpec>,
-    /// Output requests.
-    pub output: OutputSpec,
-    /// Rigid tools.
-    pub tools: Vec<tools::ToolSpec>,
+    /// The model: mesh, materials, structures, tools, steps, outputs.
+    pub model: ModelSpec,
     /// The built-in cell model and experiment, when the scenario has `[cell]`.
     pub cell: Option<cell::CellStudy>,
     /// The scenario file as parsed, for echoing into `summary.json`.
     pub echo: toml::Table,
-}
-
-/// The law of one element set.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MaterialAssignment {
-    /// Element set.
-    pub element_set: String,
-    /// Neo-Hookean parameters (kPa).
-    pub law: NeoHookean,
-    /// Element formulation.
-    pub formulation: Hex8Formulation,
-}
-
-/// One analysis step on node sets.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StepSpec {
-    /// Step name.
-    pub name: String,
-    /// Increment control and convergence criteria.
-    pub control: StepControl,
-    /// Node sets held in place, with the components held.
-    pub fixes: Vec<(String, [bool; 3])>,
-    /// Prescribed displacement changes over the step: node set, component, value (µm).
-    pub displacements: Vec<(String, usize, f64)>,
-    /// Total forces at step end: node set, component, value (nN).
-    pub forces: Vec<(String, usize, f64)>,
-    /// Tool motions over the step (tools not listed hold).
-    pub tools: Vec<tools::ToolMotion>,
-}
-
-/// Output requests.
-#[derive(Debug, Clone, PartialEq)]
-pub struct OutputSpec {
-    /// Force–displacement curves.
-    pub curves: Vec<CurveSpec>,
-    /// VTU frame every this many converged increments (0: step ends only).
-    pub vtk_every: usize,
-    /// Plot file format.
-    pub plot_format: PlotFormat,
-}
-
-/// A reaction-force vs displacement curve of one node set and component.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CurveSpec {
-    /// Column prefix.
-    pub name: String,
-    /// Node set.
-    pub node_set: String,
-    /// Component 0, 1, 2 (x, y, z).
-    pub component: usize,
-    /// +1, or -1 to report the reaction with the opposite sign.
-    pub sign: f64,
-}
-
-/// Plot file format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlotFormat {
-    /// Portable Network Graphics.
-    Png,
-    /// Scalable Vector Graphics.
-    Svg,
-}
-
-impl PlotFormat {
-    /// File extension.
-    pub fn extension(self) -> &'static str {
-        match self {
-            PlotFormat::Png => "png",
-            PlotFormat::Svg => "svg",
-        }
-    }
 }
 
 /// A scenario that could not be read or is inconsistent. Says which file, which line and

@@ -12,7 +12,8 @@ use toml::Spanned;
 use super::context::Ctx;
 use super::file::{MaterialSection, MeshSection, NodeSetSection, ScenarioFile, StepSection};
 use super::{
-    CurveSpec, MaterialAssignment, OutputSpec, PlotFormat, Scenario, ScenarioError, StepSpec,
+    CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, Scenario, ScenarioError,
+    ShapeProbeSpec, StepSpec,
 };
 
 /// Resolves a parsed file into a [`Scenario`].
@@ -121,15 +122,33 @@ pub fn resolve(
             super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
         }
     };
+    let (supports, shape_probes) = match &study {
+        Some(s) => (
+            crate::cell::suspended::SUPPORT_SETS
+                .iter()
+                .map(|(name, comps)| (name.to_string(), *comps))
+                .collect(),
+            vec![ShapeProbeSpec {
+                name: "nucleus".into(),
+                node_set: "inner_surface".into(),
+                axis: s.axis,
+            }],
+        ),
+        None => (Vec::new(), Vec::new()),
+    };
     Ok(Scenario {
         title: raw.title.unwrap_or_else(|| "cellmech analysis".into()),
         origin: origin.into(),
-        mesh,
-        materials,
-        structures,
-        steps,
-        output,
-        tools,
+        model: ModelSpec {
+            mesh,
+            materials,
+            structures,
+            tools,
+            steps,
+            output,
+            supports,
+            shape_probes,
+        },
         cell: study,
         echo,
     })

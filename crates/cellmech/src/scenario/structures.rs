@@ -15,6 +15,7 @@ use toml::Spanned;
 
 use super::context::Ctx;
 use super::ScenarioError;
+pub use crate::model::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
 use crate::units::{Length, Pressure, Ratio};
 
 /// Default distance within which a `points` end snaps to the nearest mesh node (µm).
@@ -88,65 +89,6 @@ pub struct FamilySection {
     pub modulus_scale: Option<Spanned<f64>>,
     /// Replaces the prestrain of every truss of the family.
     pub prestrain: Option<Spanned<Ratio>>,
-}
-
-/// The element and material of a resolved filament group.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FilamentElement {
-    /// Two-node trusses with this law.
-    Truss(AxialLaw),
-    /// Two-node corotational beams with this section (nodes carry 6 DOFs).
-    Beam(BeamSection),
-}
-
-/// A resolved filament group: node pairs and their element, in internal units.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FilamentSpec {
-    /// Group name.
-    pub name: String,
-    /// Family name (curve-column prefix).
-    pub family: String,
-    /// Mesh node pairs of the elements.
-    pub pairs: Vec<[usize; 2]>,
-    /// Element and material (family scale and prestrain override applied).
-    pub element: FilamentElement,
-    /// False when the family is switched off: the group is not built.
-    pub enabled: bool,
-}
-
-/// A resolved membrane layer.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MembraneSpec {
-    /// Layer name.
-    pub name: String,
-    /// Family name.
-    pub family: String,
-    /// Quad4 faces (outward normals).
-    pub faces: Vec<[usize; 4]>,
-    /// Shear modulus G (kPa), family scale applied.
-    pub shear_modulus: f64,
-    /// Reference thickness (µm).
-    pub thickness: f64,
-    /// False when the family is switched off.
-    pub enabled: bool,
-}
-
-/// Every structure of a scenario besides the continuum blocks.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct StructuresSpec {
-    /// Filament groups in file order.
-    pub filaments: Vec<FilamentSpec>,
-    /// Membrane layers in file order.
-    pub membranes: Vec<MembraneSpec>,
-}
-
-impl StructuresSpec {
-    /// Whether any enabled filament group is made of beams (then some nodes carry 6 DOFs).
-    pub fn has_beams(&self) -> bool {
-        self.filaments
-            .iter()
-            .any(|f| f.enabled && matches!(f.element, FilamentElement::Beam(_)))
-    }
 }
 
 fn valid_family_name(name: &str) -> bool {

@@ -1,21 +1,6 @@
-//! Rigid tools in a scenario: `[[tool]]` sections (plates, micropipette disks, AFM tips,
-//! colloidal probes) and their per-step motion `[[step.tool]]`.
-//!
-//! The raw sections are read by serde (unknown keys rejected, quantities with units); the
-//! resolved [`ToolSpec`] and [`ToolMotion`] are in internal units with every default filled
-//! in. Defaults (see `docs/tools.md`):
-//!
-//! * penalty ε = [`PENALTY_FACTOR`] × G_max × h, G_max the largest shear modulus of the
-//!   model's materials and h the mean spacing of the tool's contact nodes: a surface node of
-//!   an element of size h resists with a stiffness of order G h, so ε is 50 times stiffer
-//!   than the body there (the penalty part of the penetration is ~2 % of the node's elastic
-//!   displacement, so few augmentations are needed) yet only ~10² times stiffer (the tangent
-//!   stays well conditioned). The augmented Lagrangian iterations remove the dependence of
-//!   the result on ε: the converged penetration is below the tolerance whatever ε is.
-//! * tolerance = [`TOLERANCE_FACTOR`] × the diagonal of the mesh's bounding box (5.6 nm for
-//!   the 32 µm suspended cell): far below any measured displacement, above round-off.
-//! * `until_force` tolerance = [`FORCE_TOLERANCE_FACTOR`] × G_max × diagonal², a force scale
-//!   of the whole body.
+//! `[[tool]]` sections (plates, micropipette disks, AFM tips, colloidal probes) and their
+//! per-step motion `[[step.tool]]`, resolved into [`ToolSpec`]s and [`ToolMotion`]s (see
+//! [`crate::model::tools`] for the defaults).
 
 use cellmech_fem::contact::{ContactKind, ToolShape};
 use cellmech_fem::mesh::Mesh;
@@ -24,14 +9,11 @@ use toml::Spanned;
 
 use super::context::Ctx;
 use super::{MaterialAssignment, ScenarioError};
+pub use crate::model::tools::{
+    default_penalty, default_tolerance, largest_shear_modulus, mesh_diagonal, tool_program,
+    ForceTarget, ToolMotion, ToolSpec, FORCE_TOLERANCE_FACTOR, PENALTY_FACTOR, TOLERANCE_FACTOR,
+};
 use crate::units::{Force, Length, Stiffness};
-
-/// Default penalty = this × largest shear modulus × mean contact-node spacing.
-pub const PENALTY_FACTOR: f64 = 50.0;
-/// Default penetration / bond-gap tolerance = this × bounding-box diagonal.
-pub const TOLERANCE_FACTOR: f64 = 1e-4;
-/// Default `until_force` tolerance = this × largest shear modulus × diagonal².
-pub const FORCE_TOLERANCE_FACTOR: f64 = 1e-6;
 
 /// `[[tool]]`: a rigid tool acting on a node set through contact.
 #[derive(Debug, Clone, Deserialize)]
@@ -78,102 +60,6 @@ pub struct StepToolSection {
     pub until_force: Option<Spanned<Force>>,
     /// Accepted distance from `until_force` (default from the model's force scale).
     pub force_tolerance: Option<Spanned<Force>>,
-}
-
-/// A resolved tool in internal units (µm, nN/µm).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ToolSpec {
-    /// Name.
-    pub name: String,
-    /// Shape in its reference position (unit normals/axes).
-    pub shape: ToolShape,
-    /// Frictionless or bonded.
-    pub kind: ContactKind,
-    /// Node set of the contact candidates (non-empty).
-    pub node_set: String,
-    /// Penalty ε (nN/µm).
-    pub penalty: f64,
-    /// Penetration / bond-gap tolerance (µm).
-    pub tolerance: f64,
-}
-
-/// A tool's motion over one step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ToolMotion {
-    /// Tool name (exists).
-    pub tool: String,
-    /// Pilot-point displacement over the step (µm).
-    pub movement: [f64; 3],
-    /// Stop the step where the force along the motion reaches this value.
-    pub until_force: Option<ForceTarget>,
-}
-
-/// A force target ending a step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ForceTarget {
-    /// Target force along the motion (nN).
-    pub value: f64,
-    /// Accepted distance from it (nN, > 0).
-    pub tolerance: f64,
-}
-
-fn largest_shear_modulus(materials: &[MaterialAssignment]) -> f64 {
-    materials
-        .iter()
-        .map(|m| m.law.shear_modulus)
-        .fold(0.0, f64::max)
-}
-
-fn mesh_diagonal(mesh: &Mesh) -> f64 {
-    let (lo, hi) = mesh.bounding_box();
-    (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt()
-}
-
-/// Mean distance from a contact node to its nearest neighbour in the set (sampled over at
-/// most 400 nodes); the model diagonal for a single node.
-fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
-    if nodes.len() < 2 {
-        return mesh_diagonal(mesh);
-    }
-    let stride = nodes.len().div_ceil(400);
-    let mut total = 0.0;
-    let mut count = 0;
-    for &a in nodes.iter().step_by(stride) {
-        let pa = mesh.nodes[a];
-        let nearest = nodes
-            .iter()
-            .filter(|&&b| b != a)
-            .map(|&b| {
-                let pb = mesh.nodes[b];
-                (0..3).map(|i| (pa[i] - pb[i]).powi(2)).sum::<f64>().sqrt()
-            })
-            .filter(|&d| d > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        if nearest.is_finite() {
-            total += nearest;
-            count += 1;
-        }
-    }
-    if count == 0 {
-        mesh_diagonal(mesh)
-    } else {
-        total / count as f64
-    }
-}
-
-/// The default penalty of a tool on `nodes`: [`PENALTY_FACTOR`] × the largest shear
-/// modulus × the mean spacing of the contact nodes (0 when no material has a modulus).
-pub(super) fn default_penalty(
-    materials: &[MaterialAssignment],
-    mesh: &Mesh,
-    nodes: &[usize],
-) -> f64 {
-    PENALTY_FACTOR * largest_shear_modulus(materials) * mean_spacing(mesh, nodes)
-}
-
-/// The default penetration / bond-gap tolerance: [`TOLERANCE_FACTOR`] × the mesh diagonal.
-pub(super) fn default_tolerance(mesh: &Mesh) -> f64 {
-    TOLERANCE_FACTOR * mesh_diagonal(mesh)
 }
 
 /// Resolves the `[[tool]]` sections against the mesh and materials.
@@ -497,22 +383,6 @@ pub(super) fn resolve_step_tools(
         });
     }
     Ok(out)
-}
-
-/// The pilot-point displacement of `tool` at the end of each step (cumulative moves).
-pub fn tool_program(tool: &str, steps: &[Vec<ToolMotion>]) -> Vec<[f64; 3]> {
-    let mut at = [0.0; 3];
-    steps
-        .iter()
-        .map(|motions| {
-            if let Some(m) = motions.iter().find(|m| m.tool == tool) {
-                for (a, d) in at.iter_mut().zip(m.movement) {
-                    *a += d;
-                }
-            }
-            at
-        })
-        .collect()
 }
 
 /// Checks, before solving, that each tool reaches the body in the first step where it

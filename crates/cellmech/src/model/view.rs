@@ -12,8 +12,8 @@ use cellmech_io::{plot_model_picture, Field, LineGroup, ModelPicture, PvdSeries,
 use serde::Serialize;
 
 use crate::model::BuiltModel;
-use crate::scenario::structures::FilamentElement;
-use crate::scenario::Scenario;
+use super::structures::FilamentElement;
+use super::ModelSpec;
 
 /// Colours of well-known families (others cycle through a palette).
 fn family_color(family: &str, k: usize) -> (u8, u8, u8) {
@@ -32,17 +32,17 @@ fn family_color(family: &str, k: usize) -> (u8, u8, u8) {
 
 /// The picture of a scenario's model in its reference configuration: the outer surface
 /// mesh, the nucleus surface and every enabled filament group, coloured by family.
-pub fn model_picture(scenario: &Scenario) -> ModelPicture {
-    model_picture_at(scenario, &scenario.mesh.nodes, scenario.title.clone())
+pub fn model_picture(model: &ModelSpec, title: &str) -> ModelPicture {
+    model_picture_at(model, &model.mesh.nodes, title.to_string())
 }
 
 /// The same picture with the nodes at `positions` (e.g. the deformed configuration).
 pub fn model_picture_at(
-    scenario: &Scenario,
+    model: &ModelSpec,
     positions: &[[f64; 3]],
     title: String,
 ) -> ModelPicture {
-    let mesh = &scenario.mesh;
+    let mesh = &model.mesh;
     let x = |n: usize| positions[n];
     let mut groups = Vec::new();
     let outlines: [(Option<&[&str]>, &str, (u8, u8, u8)); 2] = [
@@ -69,7 +69,7 @@ pub fn model_picture_at(
         });
     }
     let mut families: Vec<(&str, Vec<[[f64; 3]; 2]>, &str)> = Vec::new();
-    for f in scenario.structures.filaments.iter().filter(|f| f.enabled) {
+    for f in model.structures.filaments.iter().filter(|f| f.enabled) {
         let kind = match f.element {
             FilamentElement::Truss(_) => "trusses",
             FilamentElement::Beam(_) => "beams",
@@ -111,50 +111,65 @@ struct ModelDescription<'a> {
     terms: Vec<(String, usize)>,
     steps: Vec<&'a str>,
     seed: Option<u64>,
-    cell: Option<&'a crate::scenario::cell::CellStudy>,
+    cell: Option<&'a serde_json::Value>,
+}
+
+/// What a model is, for `model.json` and the picture's title.
+pub struct ModelAbout<'a> {
+    /// Title.
+    pub title: &'a str,
+    /// Where the model came from (a scenario path or `<built-in: name>`).
+    pub origin: &'a str,
+    /// Seed of its random choices.
+    pub seed: Option<u64>,
+    /// The cell model's description, when it is one.
+    pub cell: Option<&'a serde_json::Value>,
+    /// Plot format.
+    pub plot_format: super::PlotFormat,
 }
 
 /// Writes `model.pvd`/`model_0000.vtu`, `model.<png|svg>` and `model.json` into `dir`
 /// (created if needed) and returns the file names.
 pub fn write_model(
-    scenario: &Scenario,
+    spec: &ModelSpec,
     model: &BuiltModel,
+    about: &ModelAbout<'_>,
     dir: &Path,
 ) -> Result<Vec<String>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let mut pvd = PvdSeries::new(dir, "model").map_err(|e| e.to_string())?;
     // Node sets as 0/1 point fields `set_<name>` (the 30 one-node `fa_<k>` sets are covered
     // by `set_focal_adhesions`).
-    let sets = scenario
+    let sets = spec
         .mesh
         .node_sets
         .iter()
         .filter(|(name, _)| !(name.starts_with("fa_") && name[3..].parse::<usize>().is_ok()))
         .map(|(name, nodes)| {
-            let mut flag = vec![0.0; scenario.mesh.num_nodes()];
+            let mut flag = vec![0.0; spec.mesh.num_nodes()];
             for &n in nodes {
                 flag[n] = 1.0;
             }
             Field::new(format!("set_{name}"), 1, flag)
         })
         .collect();
-    crate::output::write_frame(&mut pvd, 0.0, &model.problem, &scenario.mesh.nodes, sets)?;
-    let picture = format!("model.{}", scenario.output.plot_format.extension());
-    plot_model_picture(&dir.join(&picture), &model_picture(scenario)).map_err(|e| e.to_string())?;
+    crate::output::write_frame(&mut pvd, 0.0, &model.problem, &spec.mesh.nodes, sets)?;
+    let picture = format!("model.{}", about.plot_format.extension());
+    plot_model_picture(&dir.join(&picture), &model_picture(spec, about.title)).map_err(|e| e.to_string())?;
     let p = &model.problem;
     let description = ModelDescription {
-        title: &scenario.title,
-        scenario: &scenario.origin,
-        nodes: scenario.mesh.num_nodes(),
-        hex8_elements: scenario.mesh.num_elements(),
+        title: about.title,
+        scenario: about.origin,
+        nodes: spec.mesh.num_nodes(),
+        hex8_elements: spec.mesh.num_elements(),
         dofs: p.dof_map().num_dofs(),
-        element_sets: scenario
+        element_sets: spec
             .mesh
             .blocks
             .iter()
             .map(|b| (b.name.clone(), b.len()))
             .collect(),
-        node_sets: scenario
+        node_sets: spec
             .mesh
             .node_sets
             .iter()
@@ -165,9 +180,9 @@ pub fn write_model(
             .iter()
             .map(|t| (t.name().to_string(), t.num_elements()))
             .collect(),
-        steps: scenario.steps.iter().map(|s| s.name.as_str()).collect(),
-        seed: scenario.cell.as_ref().map(|c| c.seed),
-        cell: scenario.cell.as_ref(),
+        steps: spec.steps.iter().map(|s| s.name.as_str()).collect(),
+        seed: about.seed,
+        cell: about.cell,
     };
     cellmech_io::write_json_atomic(&dir.join("model.json"), &description)
         .map_err(|e| e.to_string())?;

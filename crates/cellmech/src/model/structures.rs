@@ -17,7 +17,67 @@ use cellmech_fem::element::truss::{TrussError, TrussSet};
 use cellmech_fem::mesh::{ElementKind, Mesh};
 use cellmech_fem::term::Term;
 
-use crate::scenario::structures::{FilamentElement, StructuresSpec};
+use cellmech_fem::element::beam::BeamSection;
+use cellmech_fem::material::AxialLaw;
+
+/// The element and material of a resolved filament group.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FilamentElement {
+    /// Two-node trusses with this law.
+    Truss(AxialLaw),
+    /// Two-node corotational beams with this section (nodes carry 6 DOFs).
+    Beam(BeamSection),
+}
+
+/// A resolved filament group: node pairs and their element, in internal units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilamentSpec {
+    /// Group name.
+    pub name: String,
+    /// Family name (curve-column prefix).
+    pub family: String,
+    /// Mesh node pairs of the elements.
+    pub pairs: Vec<[usize; 2]>,
+    /// Element and material (family scale and prestrain override applied).
+    pub element: FilamentElement,
+    /// False when the family is switched off: the group is not built.
+    pub enabled: bool,
+}
+
+/// A resolved membrane layer.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MembraneSpec {
+    /// Layer name.
+    pub name: String,
+    /// Family name.
+    pub family: String,
+    /// Quad4 faces (outward normals).
+    pub faces: Vec<[usize; 4]>,
+    /// Shear modulus G (kPa), family scale applied.
+    pub shear_modulus: f64,
+    /// Reference thickness (µm).
+    pub thickness: f64,
+    /// False when the family is switched off.
+    pub enabled: bool,
+}
+
+/// Every structure of a scenario besides the continuum blocks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StructuresSpec {
+    /// Filament groups in file order.
+    pub filaments: Vec<FilamentSpec>,
+    /// Membrane layers in file order.
+    pub membranes: Vec<MembraneSpec>,
+}
+
+impl StructuresSpec {
+    /// Whether any enabled filament group is made of beams (then some nodes carry 6 DOFs).
+    pub fn has_beams(&self) -> bool {
+        self.filaments
+            .iter()
+            .any(|f| f.enabled && matches!(f.element, FilamentElement::Beam(_)))
+    }
+}
 
 /// Why the structures could not be turned into engine terms.
 #[derive(Debug, thiserror::Error)]

@@ -1,4 +1,17 @@
-//! From a resolved scenario to an engine problem: DOFs, terms, steps and curve DOFs.
+//! The model layer: the domain's description of a model as plain data ([`ModelSpec`]:
+//! mesh, materials, structures, tools, steps, outputs wanted), produced by the scenario
+//! parser and by the cell builders and protocols, and [`build`], which turns it into an
+//! engine problem (DOFs, terms, steps, curve DOFs). Nothing here imports `scenario`,
+//! `cell` or `protocol`.
+
+mod spec;
+pub mod structures;
+pub mod tools;
+pub mod view;
+
+pub use spec::{
+    CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
+};
 
 use cellmech_fem::continuum::ContinuumBlock;
 use cellmech_fem::dof::DofMap;
@@ -6,7 +19,6 @@ use cellmech_fem::linsolve::FaerSparseSolver;
 use cellmech_fem::solve::{Motion, NodalLoad, Problem, SolveError, Step};
 use cellmech_fem::term::Term;
 
-use crate::scenario::{Scenario, StepSpec};
 
 /// A curve request turned into DOFs.
 #[derive(Debug, Clone, PartialEq)]
@@ -90,7 +102,7 @@ pub enum BuildError {
     Continuum(#[from] cellmech_fem::continuum::ContinuumBlockError),
     /// A filament or membrane set was rejected.
     #[error(transparent)]
-    Structures(#[from] crate::model_structures::StructureBuildError),
+    Structures(#[from] structures::StructureBuildError),
     /// A rigid tool could not be set up.
     #[error(transparent)]
     Contact(#[from] cellmech_fem::contact::ContactError),
@@ -99,17 +111,14 @@ pub enum BuildError {
     Solve(#[from] SolveError),
 }
 
-/// Builds the engine problem for `scenario`.
-pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
-    let mesh = &scenario.mesh;
-    let structures = &scenario.structures;
-    let dof_map = DofMap::with_counts(&crate::model_structures::dofs_per_node(
-        mesh.num_nodes(),
-        structures,
-    ));
+/// Builds the engine problem for `model`.
+pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
+    let mesh = &model.mesh;
+    let structures = &model.structures;
+    let dof_map = DofMap::with_counts(&structures::dofs_per_node(mesh.num_nodes(), structures));
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
-    for assignment in &scenario.materials {
-        // resolve() guarantees the block exists.
+    for assignment in &model.materials {
+        // The parser and the cell builders guarantee the block exists.
         if let Some(block) = mesh.block(&assignment.element_set) {
             terms.push(Box::new(ContinuumBlock::new(
                 block,
@@ -119,21 +128,19 @@ pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
             )?));
         }
     }
-    terms.extend(crate::model_tools::contact_terms(scenario)?);
-    terms.extend(crate::model_structures::structure_terms(
-        mesh, structures, &dof_map,
-    )?);
+    terms.extend(tools::contact_terms(model)?);
+    terms.extend(structures::structure_terms(mesh, structures, &dof_map)?);
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
-    let steps = scenario
+    let steps = model
         .steps
         .iter()
         .map(|s| {
             let mut step = engine_step(s, &set, &dof_map);
-            crate::model_tools::apply_to_step(&mut step, s);
+            tools::apply_to_step(&mut step, s);
             step
         })
         .collect();
-    let curves = scenario
+    let curves = model
         .output
         .curves
         .iter()
@@ -147,28 +154,26 @@ pub fn build(scenario: &Scenario) -> Result<BuiltModel, BuildError> {
             sign: c.sign,
         })
         .collect();
-    let probes = scenario
-        .cell
+    let probes = model
+        .shape_probes
         .iter()
-        .map(|c| ShapeProbe {
-            name: "nucleus".into(),
-            nodes: c.nucleus_surface.clone(),
-            axis: c.axis,
+        .map(|p| ShapeProbe {
+            name: p.name.clone(),
+            nodes: set(&p.node_set).to_vec(),
+            axis: p.axis,
         })
         .collect();
-    let support_dofs = match &scenario.cell {
-        Some(_) => crate::cell::suspended::SUPPORT_SETS
-            .iter()
-            .flat_map(|(name, comps)| {
-                set(name)
-                    .iter()
-                    .flat_map(|&n| (0..3).filter(|&c| comps[c]).map(move |c| (n, c)))
-                    .collect::<Vec<_>>()
-            })
-            .map(|(n, c)| dof_map.dof(n, c))
-            .collect(),
-        None => Vec::new(),
-    };
+    let support_dofs = model
+        .supports
+        .iter()
+        .flat_map(|(name, comps)| {
+            set(name)
+                .iter()
+                .flat_map(|&n| (0..3).filter(|&c| comps[c]).map(move |c| (n, c)))
+                .collect::<Vec<_>>()
+        })
+        .map(|(n, c)| dof_map.dof(n, c))
+        .collect();
     let mut problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))?;
     let (lo, hi) = mesh.bounding_box();
     problem.set_length_scale((0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt());

@@ -1,0 +1,115 @@
+//! The model as plain data: what the scenario parser and the cell builders produce and
+//! [`super::build`] turns into an engine problem. No parsing, no engine objects.
+
+use cellmech_fem::element::hex8::Hex8Formulation;
+use cellmech_fem::material::NeoHookean;
+use cellmech_fem::mesh::Mesh;
+use cellmech_fem::solve::StepControl;
+
+use super::structures::StructuresSpec;
+use super::tools::{ToolMotion, ToolSpec};
+
+/// A complete model in internal units (µm, nN, kPa): mesh, materials, structures, tools,
+/// steps and the outputs wanted.
+#[derive(Debug, Clone)]
+pub struct ModelSpec {
+    /// The mesh with its element and node sets.
+    pub mesh: Mesh,
+    /// Material of every element set, in mesh block order.
+    pub materials: Vec<MaterialAssignment>,
+    /// Filaments, membranes and family switches (see [`super::structures`]).
+    pub structures: StructuresSpec,
+    /// Rigid tools.
+    pub tools: Vec<ToolSpec>,
+    /// Analysis steps in order.
+    pub steps: Vec<StepSpec>,
+    /// Output requests.
+    pub output: OutputSpec,
+    /// Supports that only remove rigid-body modes (node set, components): their largest
+    /// reaction is reported per increment as `support_reaction_max_nN` and must stay ~0.
+    pub supports: Vec<(String, [bool; 3])>,
+    /// Shape probes (e.g. a cell's nucleus): extent along and across a test axis.
+    pub shape_probes: Vec<ShapeProbeSpec>,
+}
+
+/// A node set whose shape along a test axis is reported per increment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShapeProbeSpec {
+    /// Column prefix (e.g. `nucleus`).
+    pub name: String,
+    /// Node set measured.
+    pub node_set: String,
+    /// Test axis (0, 1, 2).
+    pub axis: usize,
+}
+
+/// The law of one element set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialAssignment {
+    /// Element set.
+    pub element_set: String,
+    /// Neo-Hookean parameters (kPa).
+    pub law: NeoHookean,
+    /// Element formulation.
+    pub formulation: Hex8Formulation,
+}
+
+/// One analysis step on node sets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepSpec {
+    /// Step name.
+    pub name: String,
+    /// Increment control and convergence criteria.
+    pub control: StepControl,
+    /// Node sets held in place, with the components held.
+    pub fixes: Vec<(String, [bool; 3])>,
+    /// Prescribed displacement changes over the step: node set, component, value (µm).
+    pub displacements: Vec<(String, usize, f64)>,
+    /// Total forces at step end: node set, component, value (nN).
+    pub forces: Vec<(String, usize, f64)>,
+    /// Tool motions over the step (tools not listed hold).
+    pub tools: Vec<ToolMotion>,
+}
+
+/// Output requests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputSpec {
+    /// Force–displacement curves.
+    pub curves: Vec<CurveSpec>,
+    /// VTU frame every this many converged increments (0: step ends only).
+    pub vtk_every: usize,
+    /// Plot file format.
+    pub plot_format: PlotFormat,
+}
+
+/// A reaction-force vs displacement curve of one node set and component.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurveSpec {
+    /// Column prefix.
+    pub name: String,
+    /// Node set.
+    pub node_set: String,
+    /// Component 0, 1, 2 (x, y, z).
+    pub component: usize,
+    /// +1, or -1 to report the reaction with the opposite sign.
+    pub sign: f64,
+}
+
+/// Plot file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlotFormat {
+    /// Portable Network Graphics.
+    Png,
+    /// Scalable Vector Graphics.
+    Svg,
+}
+
+impl PlotFormat {
+    /// File extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            PlotFormat::Png => "png",
+            PlotFormat::Svg => "svg",
+        }
+    }
+}

@@ -1,0 +1,215 @@
+//! Rigid tools of a model: their resolved description ([`ToolSpec`], [`ToolMotion`]),
+//! the defaults of their penalty and tolerances, and their engine contact terms, load
+//! programs and step stop conditions. Defaults (see `docs/tools.md`):
+//!
+//! * penalty ε = [`PENALTY_FACTOR`] × G_max × h, G_max the largest shear modulus of the
+//!   model's materials and h the mean spacing of the tool's contact nodes: a surface node of
+//!   an element of size h resists with a stiffness of order G h, so ε is 50 times stiffer
+//!   than the body there (the penalty part of the penetration is ~2 % of the node's elastic
+//!   displacement, so few augmentations are needed) yet only ~10² times stiffer (the tangent
+//!   stays well conditioned). The augmented Lagrangian iterations remove the dependence of
+//!   the result on ε: the converged penetration is below the tolerance whatever ε is.
+//! * tolerance = [`TOLERANCE_FACTOR`] × the diagonal of the mesh's bounding box (5.6 nm for
+//!   the 32 µm suspended cell): far below any measured displacement, above round-off.
+//! * `until_force` tolerance = [`FORCE_TOLERANCE_FACTOR`] × G_max × diagonal², a force scale
+//!   of the whole body.
+
+use cellmech_fem::contact::{ContactError, ContactKind, RigidContact, ToolShape};
+use cellmech_fem::mesh::Mesh;
+use cellmech_fem::solve::{Monitor, Step, StopCondition};
+use cellmech_fem::term::Term;
+
+use super::{MaterialAssignment, ModelSpec, StepSpec};
+
+/// Default penalty = this × largest shear modulus × mean contact-node spacing.
+pub const PENALTY_FACTOR: f64 = 50.0;
+/// Default penetration / bond-gap tolerance = this × bounding-box diagonal.
+pub const TOLERANCE_FACTOR: f64 = 1e-4;
+/// Default `until_force` tolerance = this × largest shear modulus × diagonal².
+pub const FORCE_TOLERANCE_FACTOR: f64 = 1e-6;
+
+/// A resolved tool in internal units (µm, nN/µm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolSpec {
+    /// Name.
+    pub name: String,
+    /// Shape in its reference position (unit normals/axes).
+    pub shape: ToolShape,
+    /// Frictionless or bonded.
+    pub kind: ContactKind,
+    /// Node set of the contact candidates (non-empty).
+    pub node_set: String,
+    /// Penalty ε (nN/µm).
+    pub penalty: f64,
+    /// Penetration / bond-gap tolerance (µm).
+    pub tolerance: f64,
+}
+
+/// A tool's motion over one step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolMotion {
+    /// Tool name (exists).
+    pub tool: String,
+    /// Pilot-point displacement over the step (µm).
+    pub movement: [f64; 3],
+    /// Stop the step where the force along the motion reaches this value.
+    pub until_force: Option<ForceTarget>,
+}
+
+/// A force target ending a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceTarget {
+    /// Target force along the motion (nN).
+    pub value: f64,
+    /// Accepted distance from it (nN, > 0).
+    pub tolerance: f64,
+}
+
+pub fn largest_shear_modulus(materials: &[MaterialAssignment]) -> f64 {
+    materials
+        .iter()
+        .map(|m| m.law.shear_modulus)
+        .fold(0.0, f64::max)
+}
+
+pub fn mesh_diagonal(mesh: &Mesh) -> f64 {
+    let (lo, hi) = mesh.bounding_box();
+    (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Mean distance from a contact node to its nearest neighbour in the set (sampled over at
+/// most 400 nodes); the model diagonal for a single node.
+fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
+    if nodes.len() < 2 {
+        return mesh_diagonal(mesh);
+    }
+    let stride = nodes.len().div_ceil(400);
+    let mut total = 0.0;
+    let mut count = 0;
+    for &a in nodes.iter().step_by(stride) {
+        let pa = mesh.nodes[a];
+        let nearest = nodes
+            .iter()
+            .filter(|&&b| b != a)
+            .map(|&b| {
+                let pb = mesh.nodes[b];
+                (0..3).map(|i| (pa[i] - pb[i]).powi(2)).sum::<f64>().sqrt()
+            })
+            .filter(|&d| d > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        if nearest.is_finite() {
+            total += nearest;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        mesh_diagonal(mesh)
+    } else {
+        total / count as f64
+    }
+}
+
+/// The default penalty of a tool on `nodes`: [`PENALTY_FACTOR`] × the largest shear
+/// modulus × the mean spacing of the contact nodes (0 when no material has a modulus).
+pub fn default_penalty(
+    materials: &[MaterialAssignment],
+    mesh: &Mesh,
+    nodes: &[usize],
+) -> f64 {
+    PENALTY_FACTOR * largest_shear_modulus(materials) * mean_spacing(mesh, nodes)
+}
+
+/// The default penetration / bond-gap tolerance: [`TOLERANCE_FACTOR`] × the mesh diagonal.
+pub fn default_tolerance(mesh: &Mesh) -> f64 {
+    TOLERANCE_FACTOR * mesh_diagonal(mesh)
+}
+
+/// The pilot-point displacement of `tool` at the end of each step (cumulative moves).
+pub fn tool_program(tool: &str, steps: &[Vec<ToolMotion>]) -> Vec<[f64; 3]> {
+    let mut at = [0.0; 3];
+    steps
+        .iter()
+        .map(|motions| {
+            if let Some(m) = motions.iter().find(|m| m.tool == tool) {
+                for (a, d) in at.iter_mut().zip(m.movement) {
+                    *a += d;
+                }
+            }
+            at
+        })
+        .collect()
+}
+
+/// One contact term per `[[tool]]`, with its pilot-point program (the cumulative moves of
+/// the steps; tools not moved in a step hold).
+pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactError> {
+    let motions: Vec<Vec<ToolMotion>> = model.steps.iter().map(|s| s.tools.clone()).collect();
+    model
+        .tools
+        .iter()
+        .map(|tool| {
+            let nodes = contact_nodes(&model.mesh, &tool.node_set);
+            let reference = nodes.iter().map(|&n| model.mesh.nodes[n]).collect();
+            let term = RigidContact::new(
+                tool.name.clone(),
+                tool.shape,
+                tool.kind,
+                nodes,
+                reference,
+                tool.penalty,
+                tool.tolerance,
+                tool_program(&tool.name, &motions),
+            )?;
+            Ok(Box::new(term) as Box<dyn Term>)
+        })
+        .collect()
+}
+
+fn contact_nodes(mesh: &Mesh, set: &str) -> Vec<usize> {
+    mesh.node_sets.get(set).cloned().unwrap_or_default()
+}
+
+/// The stop condition of a step whose tool has `until_force`: the step ends where the
+/// tool's force along its motion reaches the target.
+///
+/// When the motion is along a coordinate axis the monitor is the force component on that
+/// axis (`<tool>_force_z_nN`, target multiplied by the motion's sign): unlike
+/// `<tool>_force_along_motion_nN` it does not change meaning between the end of the
+/// previous step and the first increment of this one, where the direction of motion may
+/// reverse (retraction after a push).
+pub fn stop_condition(spec: &StepSpec) -> Option<StopCondition> {
+    spec.tools.iter().find_map(|m| {
+        let target = m.until_force?;
+        let nonzero: Vec<usize> = (0..3).filter(|&c| m.movement[c] != 0.0).collect();
+        let (monitor, value) = match nonzero.as_slice() {
+            [c] => (
+                format!("{}_force_{}_nN", m.tool, ["x", "y", "z"][*c]),
+                target.value * m.movement[*c].signum(),
+            ),
+            _ => (format!("{}_force_along_motion_nN", m.tool), target.value),
+        };
+        Some(StopCondition {
+            monitor: Monitor::TermScalar(monitor),
+            target: value,
+            tolerance: target.tolerance,
+        })
+    })
+}
+
+/// Adds the tool part of a step (its stop condition) to an engine step.
+pub fn apply_to_step(step: &mut Step, spec: &StepSpec) {
+    step.stop = stop_condition(spec);
+}
+
+/// The direction a tool pushes the body along: its normal/axis, or for a sphere the
+/// direction of its first move (`None` for a sphere that never moves).
+pub fn push_direction(model: &ModelSpec, tool: &str) -> Option<[f64; 3]> {
+    let spec = model.tools.iter().find(|t| t.name == tool)?;
+    spec.shape.axis().or_else(|| {
+        model.steps.iter().find_map(|s| {
+            let m = s.tools.iter().find(|m| m.tool == tool)?.movement;
+            let l = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+            (l > 0.0).then(|| m.map(|x| x / l))
+        })
+    })
+}
