@@ -8,12 +8,13 @@
 
 pub mod bench;
 pub mod cell;
-pub mod cell_report;
 pub mod examples;
 pub mod mesh_file;
 pub mod model;
 pub mod output;
+pub mod param;
 pub mod plots;
+pub mod protocol;
 pub mod run;
 pub mod scenario;
 pub mod units;

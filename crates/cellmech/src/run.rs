@@ -12,7 +12,35 @@ use serde::Serialize;
 
 use crate::model::{build, BuildError};
 use crate::output::{OutputWriter, StepStats};
-use crate::scenario::Scenario;
+use crate::model::ModelSpec;
+
+/// A model with its title and provenance, ready to run: what a scenario file resolves into
+/// and what an [`crate::experiment::Experiment`] builds.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// Title for outputs and plots.
+    pub title: String,
+    /// Where it came from (a scenario path, `<built-in: name>` or `<library>`).
+    pub origin: String,
+    /// The model: mesh, materials, structures, tools, steps, outputs.
+    pub model: ModelSpec,
+    /// The built-in cell model and its experiment, when there is one.
+    pub cell: Option<CellStudy>,
+    /// The scenario file as parsed, for echoing into `summary.json` (empty from Rust).
+    pub echo: toml::Table,
+}
+
+/// A cell model and the protocol run on it, for outputs and summaries.
+#[derive(Debug, Clone, Serialize)]
+pub struct CellStudy {
+    /// The cell.
+    #[serde(flatten)]
+    pub description: crate::cell::CellDescription,
+    /// The experiment's plan (typed handles to its tools and steps), when there is one.
+    pub protocol: Option<crate::protocol::ProtocolPlan>,
+}
+
+type Scenario = Analysis;
 
 /// What a run did: written to `summary.json` and returned to the caller.
 #[derive(Debug, Clone, Serialize)]
@@ -30,9 +58,9 @@ pub struct RunSummary {
     /// Seed of every random choice (a cell model's; none for a plain mesh).
     pub seed: Option<u64>,
     /// The cell model's resolved parameters, materials and geometry quality.
-    pub cell: Option<crate::scenario::cell::CellStudy>,
+    pub cell: Option<CellStudy>,
     /// The cell protocol's results (test curve, reference state, forces at targets).
-    pub protocol: Option<crate::cell_report::ProtocolResults>,
+    pub protocol: Option<crate::protocol::results::ProtocolResults>,
     /// Mesh and system size.
     pub size: SystemSize,
     /// Per-step convergence statistics.
@@ -161,14 +189,18 @@ pub fn run(
     .map_err(|e| RunError::Output(e.to_string()))?;
     files.push(picture);
     let protocol = match &scenario.cell {
-        Some(study) => crate::cell_report::write_protocol_results(
-            study,
+        Some(CellStudy {
+            description,
+            protocol: Some(plan),
+        }) => crate::protocol::results::write_protocol_results(
+            description,
+            plan,
             &writer,
             out_dir,
             scenario.model.output.plot_format.extension(),
         )
         .map_err(RunError::Output)?,
-        None => None,
+        _ => None,
     };
     if let Some(p) = &protocol {
         files.extend(p.files.iter().cloned());
@@ -184,7 +216,7 @@ pub fn run(
             "completed".into()
         },
         error: failure.as_ref().map(ToString::to_string),
-        seed: scenario.cell.as_ref().map(|c| c.seed),
+        seed: scenario.cell.as_ref().map(|c| c.description.seed),
         cell: scenario.cell.clone(),
         protocol,
         size: SystemSize {

@@ -10,7 +10,7 @@
 
 use std::path::PathBuf;
 
-use cellmech::cell_report::{ProtocolResults, TestPoint};
+use cellmech::protocol::results::{ProtocolResults, TestPoint};
 use cellmech::run::{run, RunSummary};
 use cellmech::scenario::{parse, Scenario, ScenarioError};
 use cellmech_fem::solve::NullObserver;
@@ -189,12 +189,12 @@ fn impossible_geometry_and_protocols_are_rejected_before_solving() {
         (
             "[cell.intermediate]\nper_fa = 0\n",
             tension,
-            "at least 1 intermediate",
+            "cell.intermediate.per_fa",
         ),
         (
             "[cell.microtubules]\ncentrosome_gap = \"-1 um\"\n",
             tension,
-            "inside the nucleus",
+            "cell.microtubules.centrosome_gap",
         ),
         (
             "",

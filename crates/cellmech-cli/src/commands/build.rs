@@ -26,7 +26,7 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
         &cellmech::model::view::ModelAbout {
             title: &scenario.title,
             origin: &scenario.origin,
-            seed: scenario.cell.as_ref().map(|c| c.seed),
+            seed: scenario.cell.as_ref().map(|c| c.description.seed),
             cell: cell_json.as_ref(),
             plot_format: scenario.model.output.plot_format,
         },

@@ -308,21 +308,21 @@ impl Term for RigidContact {
         let f = self.force_on_body(u, dof_map);
         let o = self.trial.offset;
         let mut out = vec![
-            (format!("{}_displacement_x_um", self.name), o[0]),
-            (format!("{}_displacement_y_um", self.name), o[1]),
-            (format!("{}_displacement_z_um", self.name), o[2]),
-            (format!("{}_force_x_nN", self.name), f[0]),
-            (format!("{}_force_y_nN", self.name), f[1]),
-            (format!("{}_force_z_nN", self.name), f[2]),
+            (scalar_name(&self.name, ToolScalar::Displacement(0)), o[0]),
+            (scalar_name(&self.name, ToolScalar::Displacement(1)), o[1]),
+            (scalar_name(&self.name, ToolScalar::Displacement(2)), o[2]),
+            (scalar_name(&self.name, ToolScalar::Force(0)), f[0]),
+            (scalar_name(&self.name, ToolScalar::Force(1)), f[1]),
+            (scalar_name(&self.name, ToolScalar::Force(2)), f[2]),
         ];
         if let Some(m) = self.motion_direction(self.last_step) {
             out.push((
-                format!("{}_force_along_motion_nN", self.name),
+                scalar_name(&self.name, ToolScalar::ForceAlongMotion),
                 f[0] * m[0] + f[1] * m[1] + f[2] * m[2],
             ));
         }
         out.push((
-            format!("{}_max_penetration_um", self.name),
+            scalar_name(&self.name, ToolScalar::MaxPenetration),
             self.max_violation(u, dof_map),
         ));
         out
@@ -397,6 +397,31 @@ impl Term for RigidContact {
 
     fn rollback(&mut self) {
         self.trial = self.committed.clone();
+    }
+}
+
+/// A scalar result of a rigid tool, per converged increment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ToolScalar {
+    /// Pilot-point displacement along axis 0, 1, 2 (µm).
+    Displacement(usize),
+    /// Force the tool exerts on the body along axis 0, 1, 2 (nN).
+    Force(usize),
+    /// Force along the tool's current direction of motion (nN).
+    ForceAlongMotion,
+    /// Largest penetration or bond gap of its contact nodes (µm).
+    MaxPenetration,
+}
+
+/// The name (with its unit) of a tool's scalar result: the one definition of the
+/// `curve.csv` column and of the [`crate::solve::Monitor::TermScalar`] key.
+pub fn scalar_name(tool: &str, scalar: ToolScalar) -> String {
+    const AXES: [&str; 3] = ["x", "y", "z"];
+    match scalar {
+        ToolScalar::Displacement(a) => format!("{tool}_displacement_{}_um", AXES[a.min(2)]),
+        ToolScalar::Force(a) => format!("{tool}_force_{}_nN", AXES[a.min(2)]),
+        ToolScalar::ForceAlongMotion => format!("{tool}_force_along_motion_nN"),
+        ToolScalar::MaxPenetration => format!("{tool}_max_penetration_um"),
     }
 }
 

@@ -95,6 +95,17 @@ pub struct CurveSpec {
     pub sign: f64,
 }
 
+impl Default for OutputSpec {
+    /// No extra curves, a VTU frame per converged increment, PNG plots.
+    fn default() -> Self {
+        OutputSpec {
+            curves: Vec::new(),
+            vtk_every: 1,
+            plot_format: PlotFormat::Png,
+        }
+    }
+}
+
 /// Plot file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlotFormat {

@@ -14,7 +14,9 @@
 //! * `until_force` tolerance = [`FORCE_TOLERANCE_FACTOR`] × G_max × diagonal², a force scale
 //!   of the whole body.
 
-use cellmech_fem::contact::{ContactError, ContactKind, RigidContact, ToolShape};
+use cellmech_fem::contact::{
+    scalar_name, ContactError, ContactKind, RigidContact, ToolScalar, ToolShape,
+};
 use cellmech_fem::mesh::Mesh;
 use cellmech_fem::solve::{Monitor, Step, StopCondition};
 use cellmech_fem::term::Term;
@@ -183,10 +185,10 @@ pub fn stop_condition(spec: &StepSpec) -> Option<StopCondition> {
         let nonzero: Vec<usize> = (0..3).filter(|&c| m.movement[c] != 0.0).collect();
         let (monitor, value) = match nonzero.as_slice() {
             [c] => (
-                format!("{}_force_{}_nN", m.tool, ["x", "y", "z"][*c]),
+                scalar_name(&m.tool, ToolScalar::Force(*c)),
                 target.value * m.movement[*c].signum(),
             ),
-            _ => (format!("{}_force_along_motion_nN", m.tool), target.value),
+            _ => (scalar_name(&m.tool, ToolScalar::ForceAlongMotion), target.value),
         };
         Some(StopCondition {
             monitor: Monitor::TermScalar(monitor),

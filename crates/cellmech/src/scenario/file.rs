@@ -14,10 +14,11 @@ pub struct ScenarioFile {
     pub title: Option<String>,
     /// Where the mesh comes from (or give `[cell]` to build a cell model).
     pub mesh: Option<MeshSection>,
-    /// A built-in cell model (mesh, materials and cytoskeleton); see `scenario::cell`.
-    pub cell: Option<Spanned<super::cell::CellSection>>,
+    /// A built-in cell model (mesh, materials and cytoskeleton), read against its declared
+    /// parameters; see `scenario::cell`.
+    pub cell: Option<Spanned<toml::Table>>,
     /// A built-in virtual experiment on the `[cell]` (tools, steps and outputs).
-    pub protocol: Option<Spanned<super::cell::ProtocolSection>>,
+    pub protocol: Option<Spanned<toml::Table>>,
     /// Extra node sets selected from the mesh's nodes by position.
     #[serde(default, rename = "node_set")]
     pub node_sets: Vec<NodeSetSection>,

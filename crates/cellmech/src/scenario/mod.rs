@@ -13,26 +13,15 @@ pub mod tools;
 
 use std::path::{Path, PathBuf};
 
+pub use crate::run::{Analysis, CellStudy};
 pub use crate::model::{
     CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
 };
 
 pub use resolve::resolve;
 
-/// A validated scenario in internal units (µm, nN, kPa).
-#[derive(Debug, Clone)]
-pub struct Scenario {
-    /// Title for outputs and plots.
-    pub title: String,
-    /// Where the scenario came from (a path or `<built-in: name>`).
-    pub origin: String,
-    /// The model: mesh, materials, structures, tools, steps, outputs.
-    pub model: ModelSpec,
-    /// The built-in cell model and experiment, when the scenario has `[cell]`.
-    pub cell: Option<cell::CellStudy>,
-    /// The scenario file as parsed, for echoing into `summary.json`.
-    pub echo: toml::Table,
-}
+/// A validated scenario in internal units (µm, nN, kPa): an [`Analysis`] ready to run.
+pub type Scenario = crate::run::Analysis;
 
 /// A scenario that could not be read or is inconsistent. Says which file, which line and
 /// key where known, what was expected and what was found.

@@ -13,7 +13,7 @@ use super::context::Ctx;
 use super::file::{MaterialSection, MeshSection, NodeSetSection, ScenarioFile, StepSection};
 use super::{
     CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, Scenario, ScenarioError,
-    ShapeProbeSpec, StepSpec,
+    StepSpec,
 };
 
 /// Resolves a parsed file into a [`Scenario`].
@@ -25,11 +25,11 @@ pub fn resolve(
     base_dir: &Path,
 ) -> Result<Scenario, ScenarioError> {
     let ctx = Ctx { origin, text };
-    let (mut mesh, cell) = match (&raw.mesh, &raw.cell) {
+    let (mut mesh, mut cell) = match (&raw.mesh, &raw.cell) {
         (Some(m), None) => (resolve_mesh(&ctx, m, base_dir)?, None),
         (None, Some(c)) => {
-            let resolved = super::cell::resolve_cell(origin, text, c)?;
-            (resolved.mesh.clone(), Some(resolved))
+            let built = super::cell::resolve_cell(&ctx, c.span())?;
+            (built.model.mesh.clone(), Some(built))
         }
         (Some(m), Some(_)) => {
             return Err(ctx.invalid(
@@ -58,13 +58,13 @@ pub fn resolve(
                     "a [cell] model sets its materials in [cell.cytoplasm] and [cell.nucleus]; remove [[material]]",
                 ));
             }
-            c.materials.clone()
+            c.model.materials.clone()
         }
         None => resolve_materials(&ctx, &raw.materials, &mesh)?,
     };
     let initial = cell
         .as_ref()
-        .map(|c| c.structures.clone())
+        .map(|c| c.model.structures.clone())
         .unwrap_or_default();
     let structures = super::structures::resolve_structures(
         initial,
@@ -76,9 +76,9 @@ pub fn resolve(
         origin,
     )?;
     let output = resolve_output(&ctx, &raw.output, &mesh)?;
-    let mut study = cell.map(|c| c.study);
-    let (tools, steps) = match (&raw.protocol, &mut study) {
-        (Some(p), Some(study)) => {
+    let mut plan = None;
+    let (tools, steps) = match (&raw.protocol, &mut cell) {
+        (Some(p), Some(built)) => {
             if !raw.steps.is_empty() {
                 return Err(ctx.invalid(
                     Some(p.span()),
@@ -93,10 +93,14 @@ pub fn resolve(
                     "[protocol] places its own tools; remove the [[tool]] sections (or the [protocol])",
                 ));
             }
-            let (tools, steps, spec) =
-                super::cell::resolve_protocol(origin, text, p, study, &mut mesh, &materials)?;
-            study.protocol = Some(spec);
-            (tools, steps)
+            built.model.mesh = mesh;
+            built.model.materials = materials.clone();
+            plan = Some(super::cell::resolve_protocol(&ctx, p.span(), built)?);
+            mesh = built.model.mesh.clone();
+            (
+                std::mem::take(&mut built.model.tools),
+                std::mem::take(&mut built.model.steps),
+            )
         }
         (Some(p), None) => {
             return Err(ctx.invalid(
@@ -122,20 +126,14 @@ pub fn resolve(
             super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
         }
     };
-    let (supports, shape_probes) = match &study {
-        Some(s) => (
-            crate::cell::suspended::SUPPORT_SETS
-                .iter()
-                .map(|(name, comps)| (name.to_string(), *comps))
-                .collect(),
-            vec![ShapeProbeSpec {
-                name: "nucleus".into(),
-                node_set: "inner_surface".into(),
-                axis: s.axis,
-            }],
-        ),
+    let (supports, shape_probes) = match &cell {
+        Some(c) => (c.model.supports.clone(), c.model.shape_probes.clone()),
         None => (Vec::new(), Vec::new()),
     };
+    let study = cell.map(|c| crate::run::CellStudy {
+        description: c.description,
+        protocol: plan,
+    });
     Ok(Scenario {
         title: raw.title.unwrap_or_else(|| "cellmech analysis".into()),
         origin: origin.into(),

@@ -1,4 +1,6 @@
-//! The results of a cell protocol, derived from the rows of `curve.csv`: the test's own
+//! The results of a cell protocol, derived from the recorded increments (the in-memory
+//! rows of the output writer, addressed through the plan's typed tool handles and the
+//! cell's test axis): the test's own
 //! curve (force vs elongation with the normalised stiffness for tension; force vs
 //! deformation for compression) with the nucleus strain and shape, written as
 //! `tension.csv` / `compression.csv`, their plots, and the numbers for `summary.json`.
@@ -9,7 +11,8 @@ use cellmech_io::{plot_xy, CurveWriter, PlotSpec, Series, SeriesStyle};
 use serde::Serialize;
 
 use crate::output::OutputWriter;
-use crate::scenario::cell::{CellStudy, ProtocolSpec};
+use super::ProtocolPlan;
+use crate::cell::CellDescription;
 
 /// One row of the test curve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -56,36 +59,37 @@ pub struct ProtocolResults {
 /// Computes the test curve from the writer's rows and writes its CSV and plots into `dir`.
 /// Returns `None` when the scenario has no loading protocol.
 pub fn write_protocol_results(
-    study: &CellStudy,
+    cell: &CellDescription,
+    plan: &ProtocolPlan,
     writer: &OutputWriter,
     dir: &Path,
     plot_extension: &str,
 ) -> Result<Option<ProtocolResults>, String> {
-    let (kind, tool, reference_step, sign, loading) = match &study.protocol {
-        Some(ProtocolSpec::MicropipetteTension {
+    let (kind, tool, reference_step, sign, loading) = match plan {
+        ProtocolPlan::MicropipetteTension {
             moving_tool,
             reference_step,
             stretch_step,
             ..
-        }) => (
+        } => (
             "micropipette-tension",
             moving_tool,
             *reference_step,
             1.0,
             vec![*stretch_step],
         ),
-        Some(ProtocolSpec::MicroplateCompression {
+        ProtocolPlan::MicroplateCompression {
             moving_tool,
             contact_step,
             deformations,
-        }) => (
+        } => (
             "microplate-compression",
             moving_tool,
             *contact_step,
             -1.0,
             deformations.iter().map(|(s, _)| *s).collect(),
         ),
-        _ => return Ok(None),
+        ProtocolPlan::Prestress => return Ok(None),
     };
     let column = |name: &str| {
         writer
@@ -93,12 +97,12 @@ pub fn write_protocol_results(
             .ok_or_else(|| format!("curve.csv has no column {name}"))
     };
     let step = column("step")?;
-    let u = column(&format!("{tool}_displacement_x_um"))?;
-    let f = column(&format!("{tool}_force_x_nN"))?;
+    let u = column(&tool.displacement_column(cell.axis))?;
+    let f = column(&tool.force_column(cell.axis))?;
     let strain = column("nucleus_max_principal_log_strain")?;
     let aspect = column("nucleus_aspect_ratio")?;
     let support = column("support_reaction_max_nN")?;
-    let d = study.cell_diameter;
+    let d = cell.cell_diameter;
     let area = std::f64::consts::PI * d * d / 4.0;
     let last_row_of = |s: usize| step.iter().rposition(|&k| k as usize == s);
     let prestress_support_reaction_max_nn = step
@@ -140,7 +144,7 @@ pub fn write_protocol_results(
             results.curve.push(point(r));
         }
     }
-    if let Some(ProtocolSpec::MicroplateCompression { deformations, .. }) = &study.protocol {
+    if let ProtocolPlan::MicroplateCompression { deformations, .. } = plan {
         for (s, target) in deformations {
             if let Some(r) = last_row_of(*s) {
                 results.at_deformations.push((*target, point(r)));

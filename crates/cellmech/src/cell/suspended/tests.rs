@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use cellmech_fem::mesh::generate::hex8_quality;
 
 use super::cytoskeleton::{polyline_distance_to_origin, segment_distance_to_origin};
-use super::vec3::{distance, dot, norm, sub};
+use crate::cell::vec3::{distance, dot, norm, sub};
 use super::*;
 
 const R: f64 = 16.132;

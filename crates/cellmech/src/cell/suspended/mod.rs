@@ -20,9 +20,22 @@ use cellmech_fem::mesh::Mesh;
 use cellmech_fem::solve::{Motion, Step};
 use cellmech_fem::term::Term;
 
-use super::{CellGeometryError, SuspendedCellGeometry, SuspendedCellParams};
-use crate::scenario::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
-use crate::scenario::MaterialAssignment;
+pub mod cytoskeleton;
+pub mod geometry;
+mod layout;
+pub mod params;
+#[cfg(test)]
+mod tests;
+
+pub use cytoskeleton::{IfAnchorRule, MicrotubulePath};
+pub use geometry::{
+    icosidodecahedron_edges, icosidodecahedron_unit_vertices, FaOrientation, AF_COUNT, FA_COUNT,
+    GOLDEN_RATIO,
+};
+pub use layout::*;
+
+use crate::model::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
+use crate::model::MaterialAssignment;
 
 /// Family names of the suspended cell's components (curve-column prefixes and
 /// `[families.<name>]` keys).
@@ -103,31 +116,9 @@ pub struct SuspendedCellMaterials {
 }
 
 impl Default for SuspendedCellMaterials {
+    /// The defaults declared in [`params::SUSPENDED_CELL`].
     fn default() -> Self {
-        SuspendedCellMaterials {
-            cytoplasm_shear_modulus: 0.17,
-            cytoplasm_poisson_ratio: 0.49,
-            nucleus_shear_modulus: 1.7,
-            nucleus_poisson_ratio: 0.49,
-            membrane_shear_modulus: 1000.0 / 3.0,
-            membrane_thickness: 0.01,
-            actin: ActinMaterial {
-                youngs_modulus: 2.6e6,
-                diameter: 0.007,
-                prestrain: 0.24,
-            },
-            microtubule: MicrotubuleMaterial {
-                youngs_modulus: 1.2e6,
-                outer_diameter: 0.025,
-                inner_diameter: 0.017,
-                poisson_ratio: 0.3,
-            },
-            intermediate: IntermediateMaterial {
-                youngs_modulus: 7.6e3,
-                diameter: 0.010,
-                slack: 0.20,
-            },
-        }
+        params::defaults().1
     }
 }
 
@@ -397,4 +388,123 @@ pub fn prestress_step(model: &SuspendedCellModel) -> Step {
     step.control.initial_increment = 0.1;
     step.control.max_increment = 0.2;
     step
+}
+
+/// The suspended cell as a library value: its declared parameters resolved
+/// ([`params::SUSPENDED_CELL`]), materials, and which components are in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SuspendedCell {
+    /// Geometry, mesh and routing parameters.
+    pub params: SuspendedCellParams,
+    /// Materials and sections.
+    pub materials: SuspendedCellMaterials,
+    /// Components present (all by default; `[families]` in a scenario switches them off).
+    pub components: Components,
+}
+
+impl Default for SuspendedCell {
+    /// The published model with the spec's values.
+    fn default() -> Self {
+        let (params, materials) = params::defaults();
+        SuspendedCell {
+            params,
+            materials,
+            components: Components::default(),
+        }
+    }
+}
+
+impl SuspendedCell {
+    /// The cell from resolved values of [`params::SUSPENDED_CELL`].
+    pub fn from_values(values: &crate::param::ParamValues) -> Self {
+        let (params, materials) = params::from_values(values);
+        SuspendedCell {
+            params,
+            materials,
+            components: Components::default(),
+        }
+    }
+
+    /// Builds the cell: mesh, materials, structures, 3-2-1 supports, the nucleus shape
+    /// probe, and the prestress step every protocol starts with.
+    pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
+        let parts = suspended_cell_parts(&self.params, &self.materials, self.components)?;
+        let params = &self.params;
+        let report = &parts.geometry.report;
+        let supports: Vec<(String, [bool; 3])> = SUPPORT_SETS
+            .iter()
+            .map(|(name, comps)| (name.to_string(), *comps))
+            .collect();
+        let description = crate::cell::CellDescription {
+            model: "suspended".into(),
+            seed: params.seed,
+            cell_diameter: params.cell_diameter,
+            nucleus_diameter: params.nucleus_diameter,
+            axis: 0,
+            params: serde_json::json!({
+                "cell_diameter_um": params.cell_diameter,
+                "nucleus_diameter_um": params.nucleus_diameter,
+                "mesh": {
+                    "core_divisions": params.mesh.core_divisions,
+                    "shell_layers": params.mesh.shell_layers,
+                    "outer_layers": params.mesh.outer_layers,
+                    "hex8_elements": params.mesh.elements(),
+                },
+                "fa_orientation": format!("{:?}", params.fa_orientation),
+                "mt_elements": params.mt_elements,
+                "mt_bow": [params.mt_bow_min, params.mt_bow_max],
+                "mt_clearance_margin_um": params.mt_clearance_margin,
+                "centrosome_gap_um": params.centrosome_gap,
+                "centrosome_direction": params.centrosome_direction,
+                "ifs_per_fa": params.ifs_per_fa,
+                "if_phase_rad": params.if_phase,
+                "if_anchor_rule": format!("{:?}", params.if_anchor_rule),
+            }),
+            materials: serde_json::to_value(self.materials).unwrap_or_default(),
+            geometry: serde_json::json!({
+                "max_fa_snap_um": report.max_snap_distance,
+                "max_relative_fa_snap": report.max_relative_snap_distance,
+                "min_scaled_jacobian_after_snap": report.min_scaled_jacobian_after_snap,
+                "af_length_um": report.af_length,
+                "min_mt_clearance_um": report.min_mt_clearance,
+                "mt_curvature_range_per_um": [report.mt_curvature_range.0, report.mt_curvature_range.1],
+                "max_if_anchor_error_um": report.max_if_anchor_error,
+                "max_if_tangency_error_deg": report.max_if_tangency_error_deg,
+                "max_if_nucleus_penetration_um": report.max_if_nucleus_penetration,
+            }),
+        };
+        let prestress = crate::model::StepSpec {
+            name: "prestress".into(),
+            control: cellmech_fem::solve::StepControl {
+                initial_increment: 0.1,
+                max_increment: 0.2,
+                ..Default::default()
+            },
+            fixes: supports.clone(),
+            displacements: Vec::new(),
+            forces: Vec::new(),
+            tools: Vec::new(),
+        };
+        let rotation_hold = vec![supports[2].clone()];
+        Ok(crate::cell::BuiltCell {
+            model: crate::model::ModelSpec {
+                mesh: parts.mesh,
+                materials: parts.materials,
+                structures: parts.structures,
+                tools: Vec::new(),
+                steps: Vec::new(),
+                output: crate::model::OutputSpec::default(),
+                supports,
+                shape_probes: vec![crate::model::ShapeProbeSpec {
+                    name: "nucleus".into(),
+                    node_set: "inner_surface".into(),
+                    axis: 0,
+                }],
+            },
+            description,
+            surface_set: "surface".into(),
+            prestress,
+            rotation_hold,
+        })
+    }
 }

@@ -13,7 +13,7 @@ use cellmech_fem::mesh::generate::quality::{
 use cellmech_fem::mesh::generate::{boundary_faces, SplitMix64};
 use cellmech_fem::mesh::{ElementKind, Mesh};
 
-use super::vec3::{
+use crate::cell::vec3::{
     angle, apply, compose, cross, distance, normalize, quaternion_matrix, rotate_about, scale,
     IDENTITY, M3, V3,
 };
@@ -82,7 +82,7 @@ pub fn icosidodecahedron_unit_vertices() -> [V3; FA_COUNT] {
 /// The 60 edges of an icosidodecahedron given by its vertices (any circumradius): the
 /// vertex pairs at the shortest distance, `[i, j]` with `i < j`, in lexicographic order.
 pub fn icosidodecahedron_edges(vertices: &[V3; FA_COUNT]) -> Vec<[usize; 2]> {
-    let radius = super::vec3::norm(vertices[0]);
+    let radius = crate::cell::vec3::norm(vertices[0]);
     let edge = radius / GOLDEN_RATIO;
     let mut edges = Vec::with_capacity(AF_COUNT);
     for i in 0..FA_COUNT {
@@ -287,14 +287,14 @@ pub(crate) fn snap_sites(
     let before = mesh.nodes.clone();
     for (&node, &p) in fa_nodes.iter().zip(sites) {
         let s = before[node];
-        let cell_radius = super::vec3::norm(s);
+        let cell_radius = crate::cell::vec3::norm(s);
         let theta = angle(s, p);
         let axis_raw = cross(s, p);
-        if theta > 0.0 && super::vec3::norm(axis_raw) > 0.0 {
+        if theta > 0.0 && crate::cell::vec3::norm(axis_raw) > 0.0 {
             let axis = normalize(axis_raw);
             let dir = normalize(s);
             for (n, &q) in before.iter().enumerate() {
-                let r = super::vec3::norm(q);
+                let r = crate::cell::vec3::norm(q);
                 if r <= nucleus_radius * (1.0 + 1e-9) || r >= cell_radius * (1.0 - 1e-12) {
                     continue;
                 }

@@ -27,7 +27,7 @@
 use cellmech_fem::mesh::generate::SplitMix64;
 use cellmech_fem::mesh::Mesh;
 
-use super::vec3::{add, any_perpendicular, cross, distance, dot, norm, normalize, scale, sub, V3};
+use crate::cell::vec3::{add, any_perpendicular, cross, distance, dot, norm, normalize, scale, sub, V3};
 use super::CellGeometryError;
 
 /// Mixed into the seed for the MT stream, so MT bows do not depend on the orientation
@@ -76,7 +76,7 @@ impl MicrotubulePath {
             .windows(3)
             .map(|w| {
                 let (a, b) = (sub(w[1], w[0]), sub(w[2], w[1]));
-                super::vec3::angle(a, b) / (0.5 * (norm(a) + norm(b)))
+                crate::cell::vec3::angle(a, b) / (0.5 * (norm(a) + norm(b)))
             })
             .fold(0.0, f64::max)
     }
@@ -146,7 +146,7 @@ fn route_one(routing: &MicrotubuleRouting, fa_node: usize, fa: V3, bow: f64) -> 
     let c = routing.centrosome;
     let (r_c, r_f) = (norm(c), norm(fa));
     let (u_c, u_f) = (normalize(c), normalize(fa));
-    let theta = super::vec3::angle(u_c, u_f);
+    let theta = crate::cell::vec3::angle(u_c, u_f);
     let normal_raw = cross(u_c, u_f);
     let n = if norm(normal_raw) > 1e-9 {
         normalize(normal_raw)

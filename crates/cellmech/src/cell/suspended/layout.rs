@@ -1,0 +1,555 @@
+//! The geometry of the suspended cell (continuum mesh with a nucleus, focal
+//! adhesions, and the routing of the discrete cytoskeleton).
+//!
+//! [`SuspendedCellGeometry::build`] turns [`SuspendedCellParams`] into a hex8 mesh of
+//! cytoplasm and nucleus whose outer surface carries the 30 focal adhesions (FAs) at the
+//! vertices of an icosidodecahedron, plus the actin filaments (AFs, its 60 edges), one
+//! curved microtubule (MT) per FA from a single centrosome, and intermediate filaments
+//! (IFs) from each FA tangential to the nucleus. It is pure geometry: materials,
+//! prestrain and solving belong to the model builder. See `docs/suspended-cell-geometry.md`.
+
+
+use cellmech_fem::mesh::generate::{sphere_mesh, GenerateError, SphereMeshSpec};
+use cellmech_fem::mesh::Mesh;
+
+use super::cytoskeleton::{self, IfAnchorRule, MicrotubulePath};
+use super::geometry::{self,
+    icosidodecahedron_edges, FaOrientation,
+    GOLDEN_RATIO,
+};
+
+use crate::cell::vec3::{angle, norm, normalize, scale, sub, M3, V3};
+
+/// Largest accepted number of beam elements per MT.
+pub const MAX_MT_ELEMENTS: usize = 1000;
+/// Largest accepted number of IFs per FA.
+pub const MAX_IFS_PER_FA: usize = 64;
+/// Largest accepted number of random orientation trials.
+pub const MAX_ORIENTATION_TRIALS: usize = 100_000;
+/// Largest accepted MT bow (fraction of the chord).
+pub const MAX_MT_BOW: f64 = 0.5;
+
+/// Resolution of the cubed-sphere mesh (see `cellmech_fem::mesh::generate::SphereMeshSpec`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshResolution {
+    /// Elements along the central cube's edge and per cube-face patch (even, ≥ 2).
+    pub core_divisions: usize,
+    /// Radial element layers from the central cube to the nucleus surface.
+    pub shell_layers: usize,
+    /// Radial element layers from the nucleus surface to the cell surface (cytoplasm).
+    pub outer_layers: usize,
+    /// Half-size of the central cube relative to the nucleus radius.
+    pub core_fraction: f64,
+}
+
+impl Default for MeshResolution {
+    /// The fast default: 8 divisions, 3 + 3 layers, 2816 hex8 (surface element ≈ 3.2 µm).
+    fn default() -> Self {
+        Self {
+            core_divisions: 8,
+            shell_layers: 3,
+            outer_layers: 3,
+            core_fraction: 0.5,
+        }
+    }
+}
+
+impl MeshResolution {
+    /// The finer setting: 14 divisions, 5 + 5 layers, 14 504 hex8 (surface element
+    /// ≈ 1.8 µm). 14 rather than 16 divisions because the symmetric FA sites fall closer to
+    /// its nodes (largest snap 0.26 of an element instead of 0.42; see the docs).
+    pub fn fine() -> Self {
+        Self {
+            core_divisions: 14,
+            shell_layers: 5,
+            outer_layers: 5,
+            core_fraction: 0.5,
+        }
+    }
+
+    /// Number of hex8 elements this resolution produces.
+    pub fn elements(&self) -> usize {
+        let n = self.core_divisions;
+        n * n * n + 6 * n * n * (self.shell_layers + self.outer_layers)
+    }
+}
+
+/// Parameters of the suspended-cell geometry. Lengths in µm. Defaults from
+/// `spec/cell-models.md` ("Suspended cell") where it gives them, else documented choices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SuspendedCellParams {
+    /// Cell diameter (spec: 32.264 µm).
+    pub cell_diameter: f64,
+    /// Nucleus diameter, concentric (spec default: 12.9 µm).
+    pub nucleus_diameter: f64,
+    /// Continuum mesh resolution.
+    pub mesh: MeshResolution,
+    /// Orientation of the FA icosidodecahedron against the mesh.
+    pub fa_orientation: FaOrientation,
+    /// Beam elements per MT (≥ 2 so an MT can be curved; default 8).
+    pub mt_elements: usize,
+    /// Smallest MT sideways bow at mid-length, as a fraction of the chord (default 0.05).
+    pub mt_bow_min: f64,
+    /// Largest MT bow, fraction of the chord, at most [`MAX_MT_BOW`] (default 0.20).
+    pub mt_bow_max: f64,
+    /// Smallest accepted distance of any MT element from the nucleus surface (default 0.25 µm).
+    pub mt_clearance_margin: f64,
+    /// Distance of the centrosome from the nucleus surface (default 0.75 µm).
+    pub centrosome_gap: f64,
+    /// Direction of the centrosome from the cell centre (normalised; default (1, 1, 1)).
+    pub centrosome_direction: V3,
+    /// IFs per FA: the spec asks for at least 2 (default); 1 is accepted for studies.
+    pub ifs_per_fa: usize,
+    /// Angle (rad) of the first IF's tangent point on the FA's tangent circle, measured
+    /// from the direction of +z projected onto the circle's plane (default 0).
+    pub if_phase: f64,
+    /// Which nucleus-surface nodes may anchor an IF (default: the nearest to the tangent
+    /// point, as the spec says).
+    pub if_anchor_rule: IfAnchorRule,
+    /// Seed of every random choice (MT bows and sides, orientation search).
+    pub seed: u64,
+}
+
+impl Default for SuspendedCellParams {
+    /// The defaults declared in [`super::params::SUSPENDED_CELL`].
+    fn default() -> Self {
+        super::params::defaults().0
+    }
+}
+
+impl SuspendedCellParams {
+    /// Checks every parameter; the error says what was expected and what was found.
+    pub fn validate(&self) -> Result<(), CellGeometryError> {
+        positive("cell_diameter", self.cell_diameter)?;
+        positive("nucleus_diameter", self.nucleus_diameter)?;
+        positive("centrosome_gap", self.centrosome_gap)?;
+        if self.nucleus_diameter >= self.cell_diameter {
+            return Err(CellGeometryError::NucleusNotInsideCell {
+                nucleus_diameter: self.nucleus_diameter,
+                cell_diameter: self.cell_diameter,
+            });
+        }
+        let room = 0.5 * (self.cell_diameter - self.nucleus_diameter);
+        if self.centrosome_gap >= room {
+            return Err(CellGeometryError::CentrosomeOutsideCell {
+                gap: self.centrosome_gap,
+                max: room,
+            });
+        }
+        if !(self.mt_clearance_margin >= 0.0 && self.mt_clearance_margin < self.centrosome_gap) {
+            return Err(CellGeometryError::ClearanceMarginOutOfRange {
+                margin: self.mt_clearance_margin,
+                gap: self.centrosome_gap,
+            });
+        }
+        let d = self.centrosome_direction;
+        if !(d.iter().all(|c| c.is_finite()) && norm(d) > 0.0) {
+            return Err(CellGeometryError::InvalidDirection {
+                parameter: "centrosome_direction",
+                found: d,
+            });
+        }
+        if self.ifs_per_fa < 1 {
+            return Err(CellGeometryError::TooFewIfsPerFa {
+                found: self.ifs_per_fa,
+            });
+        }
+        in_count_range("ifs_per_fa", self.ifs_per_fa, 1, MAX_IFS_PER_FA)?;
+        in_count_range("mt_elements", self.mt_elements, 2, MAX_MT_ELEMENTS)?;
+        if let FaOrientation::Optimized { trials } = self.fa_orientation {
+            in_count_range("fa_orientation.trials", trials, 0, MAX_ORIENTATION_TRIALS)?;
+        }
+        let (lo, hi) = (self.mt_bow_min, self.mt_bow_max);
+        if !(lo >= 0.0 && lo <= hi && hi <= MAX_MT_BOW) {
+            return Err(CellGeometryError::BowOutOfRange { min: lo, max: hi });
+        }
+        if !self.if_phase.is_finite() {
+            return Err(CellGeometryError::NotFinite {
+                parameter: "if_phase",
+                found: self.if_phase,
+            });
+        }
+        Ok(())
+    }
+
+    /// The centrosome position: `centrosome_gap` outside the nucleus surface along
+    /// `centrosome_direction`.
+    pub fn centrosome(&self) -> V3 {
+        scale(
+            normalize(self.centrosome_direction),
+            0.5 * self.nucleus_diameter + self.centrosome_gap,
+        )
+    }
+}
+
+fn positive(parameter: &'static str, value: f64) -> Result<(), CellGeometryError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(CellGeometryError::NotPositive {
+            parameter,
+            found: value,
+        })
+    }
+}
+
+fn in_count_range(
+    parameter: &'static str,
+    value: usize,
+    min: usize,
+    max: usize,
+) -> Result<(), CellGeometryError> {
+    if (min..=max).contains(&value) {
+        Ok(())
+    } else {
+        Err(CellGeometryError::CountOutOfRange {
+            parameter,
+            min,
+            max,
+            found: value,
+        })
+    }
+}
+
+/// Why a suspended-cell geometry could not be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum CellGeometryError {
+    /// A size is zero, negative or not finite.
+    #[error("expected {parameter} to be a positive finite length in µm; found {found}")]
+    NotPositive {
+        /// Parameter name.
+        parameter: &'static str,
+        /// Value given.
+        found: f64,
+    },
+    /// A number is not finite.
+    #[error("expected {parameter} to be a finite number; found {found}")]
+    NotFinite {
+        /// Parameter name.
+        parameter: &'static str,
+        /// Value given.
+        found: f64,
+    },
+    /// The nucleus does not fit inside the cell.
+    #[error(
+        "expected the nucleus diameter to be smaller than the cell diameter ({cell_diameter} µm); \
+         found {nucleus_diameter} µm"
+    )]
+    NucleusNotInsideCell {
+        /// Nucleus diameter given (µm).
+        nucleus_diameter: f64,
+        /// Cell diameter given (µm).
+        cell_diameter: f64,
+    },
+    /// The centrosome would be on or outside the cell surface.
+    #[error(
+        "expected centrosome_gap (distance of the centrosome from the nucleus surface) below \
+         {max} µm so that the centrosome is inside the cell; found {gap} µm"
+    )]
+    CentrosomeOutsideCell {
+        /// Gap given (µm).
+        gap: f64,
+        /// Distance from the nucleus to the cell surface (µm).
+        max: f64,
+    },
+    /// The MT clearance margin is negative or not below the centrosome gap.
+    #[error(
+        "expected mt_clearance_margin in [0, centrosome_gap = {gap} µm) (the MTs start at the \
+         centrosome); found {margin} µm"
+    )]
+    ClearanceMarginOutOfRange {
+        /// Margin given (µm).
+        margin: f64,
+        /// Centrosome gap (µm).
+        gap: f64,
+    },
+    /// A direction is zero or not finite.
+    #[error("expected {parameter} to be a non-zero finite vector; found {found:?}")]
+    InvalidDirection {
+        /// Parameter name.
+        parameter: &'static str,
+        /// Value given.
+        found: [f64; 3],
+    },
+    /// No IF per FA.
+    #[error(
+        "expected at least 1 intermediate filament per focal adhesion (the spec asks for 2); \
+         found {found}"
+    )]
+    TooFewIfsPerFa {
+        /// Value given.
+        found: usize,
+    },
+    /// A count is outside its accepted range.
+    #[error("expected {parameter} between {min} and {max}; found {found}")]
+    CountOutOfRange {
+        /// Parameter name.
+        parameter: &'static str,
+        /// Smallest accepted value.
+        min: usize,
+        /// Largest accepted value.
+        max: usize,
+        /// Value given.
+        found: usize,
+    },
+    /// The MT bow range is invalid.
+    #[error(
+        "expected 0 ≤ mt_bow_min ≤ mt_bow_max ≤ {MAX_MT_BOW} (fractions of the chord); found \
+         mt_bow_min = {min}, mt_bow_max = {max}"
+    )]
+    BowOutOfRange {
+        /// Lower bound given.
+        min: f64,
+        /// Upper bound given.
+        max: f64,
+    },
+    /// The continuum mesh could not be generated.
+    #[error("continuum mesh: {0}")]
+    Mesh(#[from] GenerateError),
+    /// Two FA sites have the same nearest surface node (mesh too coarse).
+    #[error(
+        "expected every focal adhesion to snap to its own surface node; FAs {first} and \
+         {second} both snap to node {node} (refine the mesh: more core_divisions)"
+    )]
+    FaSnapCollision {
+        /// First FA index.
+        first: usize,
+        /// Second FA index.
+        second: usize,
+        /// The shared node.
+        node: usize,
+    },
+    /// Snapping inverted an element.
+    #[error(
+        "expected positive Jacobians after snapping the focal adhesions; element {element} of \
+         block '{block}' has {min_jacobian} at a Gauss point"
+    )]
+    InvertedAfterSnap {
+        /// Block name.
+        block: String,
+        /// Element index in the block.
+        element: usize,
+        /// Smallest Gauss-point Jacobian found.
+        min_jacobian: f64,
+    },
+    /// An MT element comes too close to the nucleus.
+    #[error(
+        "expected every microtubule to stay at least {required} µm from the nucleus surface; \
+         MT {microtubule} comes within {clearance} µm"
+    )]
+    MicrotubuleTooClose {
+        /// MT index (= FA index).
+        microtubule: usize,
+        /// Its smallest distance from the nucleus surface (µm).
+        clearance: f64,
+        /// The margin required (µm).
+        required: f64,
+    },
+    /// No nucleus-surface node is visible from an FA.
+    #[error(
+        "expected nucleus-surface nodes visible from focal adhesion node {fa_node}; found none"
+    )]
+    NoVisibleNucleusNode {
+        /// The FA node.
+        fa_node: usize,
+    },
+}
+
+/// Measured quality of a built geometry (lengths in µm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeometryReport {
+    /// Number of hex8 elements.
+    pub hex8_elements: usize,
+    /// Largest distance a surface node moved to become an FA.
+    pub max_snap_distance: f64,
+    /// Largest snap distance over the mean surface edge length at that node.
+    pub max_relative_snap_distance: f64,
+    /// Nodes moved by the snap (FA nodes and the cytoplasm columns beneath them).
+    pub moved_nodes: usize,
+    /// Smallest Gauss-point Jacobian of the elements touching moved nodes (> 0).
+    pub min_gauss_jacobian_after_snap: f64,
+    /// Smallest scaled Jacobian of those elements before the snap.
+    pub min_scaled_jacobian_before_snap: f64,
+    /// Smallest scaled Jacobian of those elements after the snap.
+    pub min_scaled_jacobian_after_snap: f64,
+    /// Length of every AF (all equal: the icosidodecahedron edge, `R/φ`).
+    pub af_length: f64,
+    /// Smallest distance of any MT element from the nucleus surface.
+    pub min_mt_clearance: f64,
+    /// Smallest and largest per-MT maximum discrete curvature (1/µm).
+    pub mt_curvature_range: (f64, f64),
+    /// Largest distance from an IF anchor node to its ideal tangent point.
+    pub max_if_anchor_error: f64,
+    /// Mean of those distances.
+    pub mean_if_anchor_error: f64,
+    /// Largest deviation from 90° of the angle between an IF and the nucleus radius at its
+    /// anchor (degrees).
+    pub max_if_tangency_error_deg: f64,
+    /// Largest depth by which a straight IF enters the nucleus sphere (0 with
+    /// [`IfAnchorRule::NearestVisible`]).
+    pub max_if_nucleus_penetration: f64,
+    /// IFs sharing their anchor node with another IF.
+    pub shared_if_anchors: usize,
+}
+
+/// The suspended cell's geometry: continuum mesh with FA nodes and the discrete
+/// cytoskeleton's routing. Lengths in µm; the cell centre is the origin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SuspendedCellGeometry {
+    /// Hex8 mesh: blocks `nucleus`, `cytoplasm`; node sets of `sphere_mesh` plus
+    /// `focal_adhesions`, `fa_<k>` (k = 0..29, one node each) and `if_anchors`.
+    pub mesh: Mesh,
+    /// FA node per icosidodecahedron vertex, in vertex order.
+    pub fa_nodes: Vec<usize>,
+    /// Rotation applied to the canonical icosidodecahedron (rows first).
+    pub fa_rotation: M3,
+    /// AFs: the 60 edges as `[FA node, FA node]`.
+    pub af_edges: Vec<[usize; 2]>,
+    /// Centrosome position (not a mesh node; see [`Self::append_microtubule_nodes`]).
+    pub centrosome: V3,
+    /// One MT per FA, in FA order.
+    pub microtubules: Vec<MicrotubulePath>,
+    /// IFs as `[FA node, nucleus-surface node]`, `ifs_per_fa` consecutive ones per FA.
+    pub intermediate_filaments: Vec<[usize; 2]>,
+    /// Measured quality.
+    pub report: GeometryReport,
+}
+
+impl SuspendedCellGeometry {
+    /// Builds the geometry (deterministic for given parameters, seed included).
+    pub fn build(params: &SuspendedCellParams) -> Result<Self, CellGeometryError> {
+        params.validate()?;
+        let cell_radius = 0.5 * params.cell_diameter;
+        let nucleus_radius = 0.5 * params.nucleus_diameter;
+        let res = params.mesh;
+        let mut mesh = sphere_mesh(&SphereMeshSpec {
+            radius: cell_radius,
+            inner_radius: Some(nucleus_radius),
+            core_divisions: res.core_divisions,
+            shell_layers: res.shell_layers,
+            outer_layers: res.outer_layers,
+            core_fraction: res.core_fraction,
+        })?;
+        let surface_set = mesh.node_sets.get("surface").cloned().unwrap_or_default();
+        let surface = geometry::SurfaceNodes::new(&mesh, &surface_set);
+        let rotation =
+            geometry::choose_orientation(&surface, cell_radius, params.fa_orientation, params.seed);
+        let sites = geometry::fa_sites(&rotation, cell_radius);
+        let snap = geometry::snap_sites(&mut mesh, &surface, &sites, nucleus_radius)?;
+        let fa_nodes = snap.fa_nodes.clone();
+        let af_edges: Vec<[usize; 2]> = icosidodecahedron_edges(&std::array::from_fn(|k| sites[k]))
+            .into_iter()
+            .map(|[a, b]| [fa_nodes[a], fa_nodes[b]])
+            .collect();
+        let centrosome = params.centrosome();
+        let routing = cytoskeleton::MicrotubuleRouting {
+            centrosome,
+            cell_radius,
+            nucleus_radius,
+            elements: params.mt_elements,
+            bow_min: params.mt_bow_min,
+            bow_max: params.mt_bow_max,
+            clearance_margin: params.mt_clearance_margin,
+            seed: params.seed,
+        };
+        let (microtubules, min_mt_clearance) =
+            cytoskeleton::route_microtubules(&routing, &fa_nodes, &sites)?;
+        let inner = mesh
+            .node_sets
+            .get("inner_surface")
+            .cloned()
+            .unwrap_or_default();
+        let ifs = cytoskeleton::anchor_intermediate_filaments(
+            &mesh,
+            &inner,
+            &fa_nodes,
+            nucleus_radius,
+            params.ifs_per_fa,
+            params.if_phase,
+            params.if_anchor_rule,
+        )?;
+        mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
+        for (k, &n) in fa_nodes.iter().enumerate() {
+            mesh.insert_node_set(format!("fa_{k}"), vec![n]);
+        }
+        mesh.insert_node_set("if_anchors", ifs.filaments.iter().map(|f| f[1]).collect());
+        let report = GeometryReport {
+            hex8_elements: mesh.num_elements(),
+            max_snap_distance: snap.max_snap_distance,
+            max_relative_snap_distance: snap.max_relative_snap,
+            moved_nodes: snap.moved_nodes,
+            min_gauss_jacobian_after_snap: snap.min_gauss_jacobian,
+            min_scaled_jacobian_before_snap: snap.min_scaled_jacobian.0,
+            min_scaled_jacobian_after_snap: snap.min_scaled_jacobian.1,
+            af_length: cell_radius / GOLDEN_RATIO,
+            min_mt_clearance,
+            mt_curvature_range: curvature_range(&microtubules),
+            max_if_anchor_error: ifs.anchor_errors.iter().cloned().fold(0.0, f64::max),
+            mean_if_anchor_error: ifs.anchor_errors.iter().sum::<f64>()
+                / ifs.anchor_errors.len().max(1) as f64,
+            max_if_tangency_error_deg: max_tangency_error_deg(&mesh, &ifs.filaments),
+            max_if_nucleus_penetration: ifs
+                .filaments
+                .iter()
+                .map(|&[f, a]| {
+                    let d = cytoskeleton::segment_distance_to_origin(mesh.nodes[f], mesh.nodes[a]);
+                    (nucleus_radius - d).max(0.0)
+                })
+                .fold(0.0, f64::max),
+            shared_if_anchors: ifs.shared_anchors,
+        };
+        Ok(Self {
+            mesh,
+            fa_nodes,
+            fa_rotation: rotation,
+            af_edges,
+            centrosome,
+            microtubules,
+            intermediate_filaments: ifs.filaments,
+            report,
+        })
+    }
+
+    /// Appends the centrosome and every MT's interior points to `mesh.nodes` (meant for a
+    /// copy of [`Self::mesh`]), adds node set `centrosome`, and returns each MT's node chain:
+    /// centrosome, interior nodes from the centrosome outwards, FA node.
+    pub fn append_microtubule_nodes(&self, mesh: &mut Mesh) -> Vec<Vec<usize>> {
+        let centrosome = mesh.nodes.len();
+        mesh.nodes.push(self.centrosome);
+        mesh.insert_node_set("centrosome", vec![centrosome]);
+        self.microtubules
+            .iter()
+            .map(|mt| {
+                let mut chain = Vec::with_capacity(mt.points.len());
+                chain.push(centrosome);
+                let interior = mt.points.get(1..mt.points.len().saturating_sub(1));
+                for &p in interior.unwrap_or(&[]) {
+                    chain.push(mesh.nodes.len());
+                    mesh.nodes.push(p);
+                }
+                chain.push(mt.fa_node);
+                chain
+            })
+            .collect()
+    }
+}
+
+/// Smallest and largest per-MT maximum curvature.
+fn curvature_range(mts: &[MicrotubulePath]) -> (f64, f64) {
+    mts.iter()
+        .map(MicrotubulePath::max_curvature)
+        .fold((f64::INFINITY, 0.0), |(lo, hi), k| (lo.min(k), hi.max(k)))
+}
+
+/// The angle between an IF and the nucleus radius at its anchor, in degrees.
+pub fn if_radius_angle_deg(fa: V3, anchor: V3) -> f64 {
+    angle(sub(fa, anchor), anchor).to_degrees()
+}
+
+/// Largest |angle − 90°| over the IFs.
+fn max_tangency_error_deg(mesh: &Mesh, ifs: &[[usize; 2]]) -> f64 {
+    ifs.iter()
+        .map(|&[f, a]| (if_radius_angle_deg(mesh.nodes[f], mesh.nodes[a]) - 90.0).abs())
+        .fold(0.0, f64::max)
+}
+

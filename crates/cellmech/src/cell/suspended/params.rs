@@ -1,0 +1,153 @@
+//! The declared parameters of the suspended cell (`[cell]` with `model = "suspended"`):
+//! one line per parameter. The defaults of [`SuspendedCellParams`] and
+//! [`SuspendedCellMaterials`] come from this table, the scenario parser reads `[cell]`
+//! against it, and `docs/suspended-cell.md` shows the table generated from it (a test
+//! fails when they differ). Sources: `shared/spec/cell-models.md` ("Suspended cell");
+//! "choice" marks a documented modelling or numerical choice (docs/suspended-cell.md).
+
+use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
+use crate::units::Dimension::{Dimensionless, Length, Pressure};
+
+use super::layout::{MAX_IFS_PER_FA, MAX_MT_BOW, MAX_MT_ELEMENTS, MAX_ORIENTATION_TRIALS};
+use super::{
+    ActinMaterial, FaOrientation, IfAnchorRule, IntermediateMaterial, MeshResolution,
+    MicrotubuleMaterial, SuspendedCellMaterials, SuspendedCellParams,
+};
+
+const fn p(
+    key: &'static str,
+    kind: K,
+    default: D,
+    bounds: Bounds,
+    doc: &'static str,
+    source: &'static str,
+) -> ParamDef {
+    ParamDef {
+        key,
+        kind,
+        default,
+        bounds,
+        doc,
+        source,
+    }
+}
+
+const POS: Bounds = Bounds::POSITIVE;
+const NONNEG: Bounds = Bounds::NON_NEGATIVE;
+const ANY: Bounds = Bounds::ANY;
+const POISSON: Bounds = Bounds::new(-1.0, false, 0.5, false);
+const SPEC: &str = "spec";
+const CHOICE: &str = "choice";
+
+/// Every parameter of the suspended cell.
+pub const SUSPENDED_CELL: ParamTable = ParamTable {
+    name: "suspended-cell",
+    section: "cell",
+    params: &[
+        p("cell_diameter", K::Quantity(Length), D::Number(32.264), POS, "cell diameter D", SPEC),
+        p("nucleus_diameter", K::Quantity(Length), D::Number(12.9), POS, "nucleus diameter (concentric)", SPEC),
+        p("seed", K::Seed, D::Seed(2024), ANY, "seed of every random choice (MT bows, orientation search)", CHOICE),
+        p("resolution", K::Choice(&["default", "fine"]), D::Word("default"), ANY, "mesh: 2816 (default) or 14 504 (fine) hex8", CHOICE),
+        p("core_divisions", K::Count, D::Absent("from `resolution`"), Bounds::new(1.0, true, 1e6, true), "elements along the central cube's edge (even)", CHOICE),
+        p("shell_layers", K::Count, D::Absent("from `resolution`"), Bounds::new(1.0, true, 1e6, true), "radial element layers inside the nucleus surface", CHOICE),
+        p("outer_layers", K::Count, D::Absent("from `resolution`"), Bounds::new(1.0, true, 1e6, true), "radial element layers of cytoplasm", CHOICE),
+        p("fa_orientation", K::Choice(&["symmetric", "optimized"]), D::Word("symmetric"), ANY, "FA pattern: on the ±x, ±y, ±z poles, or rotated to fit the mesh", CHOICE),
+        p("orientation_trials", K::Count, D::Count(2000), Bounds::new(0.0, true, MAX_ORIENTATION_TRIALS as f64, true), "random rotations tried by `fa_orientation = \"optimized\"`", CHOICE),
+        p("cytoplasm.shear_modulus", K::Quantity(Pressure), D::Number(0.17), POS, "cytoplasm shear modulus G (neo-Hookean)", SPEC),
+        p("cytoplasm.poisson_ratio", K::Number, D::Number(0.49), POISSON, "cytoplasm Poisson's ratio (compressibility)", SPEC),
+        p("nucleus.shear_modulus", K::Quantity(Pressure), D::Number(1.7), POS, "nucleus shear modulus G", SPEC),
+        p("nucleus.poisson_ratio", K::Number, D::Number(0.49), POISSON, "nucleus Poisson's ratio", SPEC),
+        p("membrane.youngs_modulus", K::Quantity(Pressure), D::Number(1000.0), POS, "cell membrane Young's modulus (incompressible, G = E/3)", SPEC),
+        p("membrane.thickness", K::Quantity(Length), D::Number(0.01), POS, "cell membrane thickness", SPEC),
+        p("actin.youngs_modulus", K::Quantity(Pressure), D::Number(2.6e6), POS, "actin filament Young's modulus", SPEC),
+        p("actin.diameter", K::Quantity(Length), D::Number(0.007), POS, "actin filament diameter", SPEC),
+        p("actin.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin prestrain (tension-only trusses)", SPEC),
+        p("microtubules.youngs_modulus", K::Quantity(Pressure), D::Number(1.2e6), POS, "microtubule Young's modulus", SPEC),
+        p("microtubules.outer_diameter", K::Quantity(Length), D::Number(0.025), POS, "microtubule outer diameter (hollow)", SPEC),
+        p("microtubules.inner_diameter", K::Quantity(Length), D::Number(0.017), POS, "microtubule inner diameter", SPEC),
+        p("microtubules.poisson_ratio", K::Number, D::Number(0.3), POISSON, "Poisson's ratio of the MT section (its shear modulus)", CHOICE),
+        p("microtubules.elements", K::Count, D::Count(8), Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true), "beam elements per MT", CHOICE),
+        p("microtubules.bow_min", K::Quantity(Dimensionless), D::Number(0.05), Bounds::new(0.0, true, MAX_MT_BOW, true), "smallest sideways bow at mid-length, fraction of the chord", CHOICE),
+        p("microtubules.bow_max", K::Quantity(Dimensionless), D::Number(0.20), Bounds::new(0.0, true, MAX_MT_BOW, true), "largest bow, fraction of the chord", CHOICE),
+        p("microtubules.clearance_margin", K::Quantity(Length), D::Number(0.25), NONNEG, "smallest distance of an MT from the nucleus surface", CHOICE),
+        p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", CHOICE),
+        p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
+        p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", SPEC),
+        p("intermediate.diameter", K::Quantity(Length), D::Number(0.010), POS, "intermediate filament diameter", SPEC),
+        p("intermediate.slack", K::Quantity(Dimensionless), D::Number(0.20), NONNEG, "slack: no force below (1 + slack) × the initial length", SPEC),
+        p("intermediate.per_fa", K::Count, D::Count(2), Bounds::new(1.0, true, MAX_IFS_PER_FA as f64, true), "IFs per FA (the spec asks for at least 2)", SPEC),
+        p("intermediate.phase_deg", K::Number, D::Number(0.0), ANY, "angle (degrees) of the first IF on the FA's tangent circle", CHOICE),
+        p("intermediate.anchor", K::Choice(&["nearest", "nearest-visible"]), D::Word("nearest"), ANY, "which nucleus node anchors an IF: nearest to the tangent point, or nearest visible", SPEC),
+    ],
+};
+
+/// Geometry and materials of the suspended cell from resolved parameter values.
+pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMaterials) {
+    let mut mesh = match v.word("resolution") {
+        "fine" => MeshResolution::fine(),
+        _ => MeshResolution::default(),
+    };
+    for (key, target) in [
+        ("core_divisions", &mut mesh.core_divisions),
+        ("shell_layers", &mut mesh.shell_layers),
+        ("outer_layers", &mut mesh.outer_layers),
+    ] {
+        if let Some(n) = v.optional_count(key) {
+            *target = n;
+        }
+    }
+    let params = SuspendedCellParams {
+        cell_diameter: v.number("cell_diameter"),
+        nucleus_diameter: v.number("nucleus_diameter"),
+        mesh,
+        fa_orientation: match v.word("fa_orientation") {
+            "optimized" => FaOrientation::Optimized {
+                trials: v.count("orientation_trials"),
+            },
+            _ => FaOrientation::Symmetric,
+        },
+        mt_elements: v.count("microtubules.elements"),
+        mt_bow_min: v.number("microtubules.bow_min"),
+        mt_bow_max: v.number("microtubules.bow_max"),
+        mt_clearance_margin: v.number("microtubules.clearance_margin"),
+        centrosome_gap: v.number("microtubules.centrosome_gap"),
+        centrosome_direction: v.vector3("microtubules.centrosome_direction"),
+        ifs_per_fa: v.count("intermediate.per_fa"),
+        if_phase: v.number("intermediate.phase_deg").to_radians(),
+        if_anchor_rule: match v.word("intermediate.anchor") {
+            "nearest-visible" => IfAnchorRule::NearestVisible,
+            _ => IfAnchorRule::Nearest,
+        },
+        seed: v.seed("seed"),
+    };
+    let materials = SuspendedCellMaterials {
+        cytoplasm_shear_modulus: v.number("cytoplasm.shear_modulus"),
+        cytoplasm_poisson_ratio: v.number("cytoplasm.poisson_ratio"),
+        nucleus_shear_modulus: v.number("nucleus.shear_modulus"),
+        nucleus_poisson_ratio: v.number("nucleus.poisson_ratio"),
+        membrane_shear_modulus: v.number("membrane.youngs_modulus") / 3.0,
+        membrane_thickness: v.number("membrane.thickness"),
+        actin: ActinMaterial {
+            youngs_modulus: v.number("actin.youngs_modulus"),
+            diameter: v.number("actin.diameter"),
+            prestrain: v.number("actin.prestrain"),
+        },
+        microtubule: MicrotubuleMaterial {
+            youngs_modulus: v.number("microtubules.youngs_modulus"),
+            outer_diameter: v.number("microtubules.outer_diameter"),
+            inner_diameter: v.number("microtubules.inner_diameter"),
+            poisson_ratio: v.number("microtubules.poisson_ratio"),
+        },
+        intermediate: IntermediateMaterial {
+            youngs_modulus: v.number("intermediate.youngs_modulus"),
+            diameter: v.number("intermediate.diameter"),
+            slack: v.number("intermediate.slack"),
+        },
+    };
+    (params, materials)
+}
+
+/// The defaults of the table.
+pub fn defaults() -> (SuspendedCellParams, SuspendedCellMaterials) {
+    from_values(&ParamValues::defaults(&SUSPENDED_CELL))
+}

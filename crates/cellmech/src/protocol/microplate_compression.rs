@@ -1,0 +1,115 @@
+//! Microplate compression: prestress → approach until the moving plate feels
+//! `contact_force` → compress to each deformation of the diameter in turn. Bonded plates.
+
+use cellmech_fem::contact::ToolShape;
+use cellmech_fem::solve::StepControl;
+
+use super::{axial_motion, loading_step, place_pole_tools, ProtocolError, ProtocolPlan};
+use crate::cell::BuiltCell;
+use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
+use crate::units::Dimension::{Dimensionless, Force};
+
+/// The parameters of `kind = "microplate-compression"`.
+pub const MICROPLATE_COMPRESSION: ParamTable = ParamTable {
+    name: "microplate-compression",
+    section: "protocol",
+    params: &[
+        ParamDef { key: "deformations", kind: K::QuantityList(Dimensionless), default: D::List(&[0.1, 0.3, 0.5]), bounds: Bounds::new(0.0, false, 0.9, false), doc: "deformations of the diameter at which to report, increasing", source: "spec" },
+        ParamDef { key: "contact_force", kind: K::Quantity(Force), default: D::Number(0.1), bounds: Bounds::POSITIVE, doc: "force on the moving plate that counts as touching in the approach", source: "choice" },
+        ParamDef { key: "max_increment", kind: K::Number, default: D::Number(0.1), bounds: Bounds::new(0.0, false, 1.0, true), doc: "largest increment of the loading steps, fraction of the step", source: "choice" },
+    ],
+};
+
+/// Microplate compression settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MicroplateCompression {
+    /// Deformations of the diameter, increasing, in (0, 0.9).
+    pub deformations: Vec<f64>,
+    /// Force that counts as touching (nN).
+    pub contact_force: f64,
+    /// Largest increment of the loading steps.
+    pub max_increment: f64,
+}
+
+impl Default for MicroplateCompression {
+    /// The defaults declared in [`MICROPLATE_COMPRESSION`].
+    fn default() -> Self {
+        Self::from_values(&ParamValues::defaults(&MICROPLATE_COMPRESSION))
+    }
+}
+
+impl MicroplateCompression {
+    /// Settings from resolved values of [`MICROPLATE_COMPRESSION`].
+    pub fn from_values(v: &ParamValues) -> Self {
+        MicroplateCompression {
+            deformations: v.list("deformations").to_vec(),
+            contact_force: v.number("contact_force"),
+            max_increment: v.number("max_increment"),
+        }
+    }
+
+    /// Places the plates and writes the steps after the prestress.
+    pub(super) fn apply(&self, cell: &mut BuiltCell) -> Result<ProtocolPlan, ProtocolError> {
+        let list = &self.deformations;
+        let ok = !list.is_empty()
+            && list.iter().all(|&e| e > 0.0 && e < 0.9)
+            && list.windows(2).all(|w| w[1] > w[0]);
+        if !ok {
+            return Err(ProtocolError {
+                key: "deformations",
+                message: format!(
+                    "expected increasing deformations of the diameter in (0 %, 90 %), e.g. [\"10%\", \"30%\", \"50%\"]; found {list:?}"
+                ),
+            });
+        }
+        let d = cell.description.cell_diameter;
+        let r = 0.5 * d;
+        let axis = cell.description.axis;
+        let plate = |side: f64| {
+            let mut point = [0.0; 3];
+            point[axis] = side * r;
+            let mut normal = [0.0; 3];
+            normal[axis] = -side;
+            ToolShape::Plate { point, normal }
+        };
+        let [fixed, moving] =
+            place_pole_tools(cell, ["bottom_plate", "top_plate"], [plate(-1.0), plate(1.0)]);
+        let loading = StepControl {
+            initial_increment: self.max_increment.min(0.1),
+            max_increment: self.max_increment,
+            ..StepControl::default()
+        };
+        let f = self.contact_force;
+        let supports = cell.model.supports.clone();
+        let hold = cell.rotation_hold.clone();
+        let travel = 0.25 * d;
+        let steps = &mut cell.model.steps;
+        let contact_step = steps.len();
+        steps.push(loading_step(
+            "approach",
+            loading,
+            &supports,
+            vec![
+                axial_motion(&fixed, axis, travel, None, f),
+                axial_motion(&moving, axis, -travel, Some(f), f),
+            ],
+        ));
+        let mut previous = 0.0;
+        let mut targets = Vec::new();
+        for e in list {
+            targets.push((steps.len(), *e));
+            steps.push(loading_step(
+                &format!("compress-{:.0}", 100.0 * e),
+                loading,
+                &hold,
+                vec![axial_motion(&moving, axis, -(e - previous) * d, None, f)],
+            ));
+            previous = *e;
+        }
+        Ok(ProtocolPlan::MicroplateCompression {
+            moving_tool: moving,
+            contact_step,
+            deformations: targets,
+        })
+    }
+}
