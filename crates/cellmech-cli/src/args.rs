@@ -19,6 +19,7 @@ use clap::{Args, Parser, Subcommand};
 ///   cellmech run examples/sphere-compression.toml --out results/sphere
 ///   cellmech check my-cell.toml                    # validate without solving
 ///   cellmech example sphere-compression > my.toml  # start from a shipped scenario
+///   cellmech params suspended-cell                 # every [cell] key: default, range, source
 #[derive(Debug, Parser)]
 #[command(name = "cellmech", version, about, long_about, verbatim_doc_comment)]
 pub struct Cli {
@@ -49,6 +50,29 @@ pub enum Command {
     /// With --export-matrices DIR the final tangent of each size is written as Matrix Market
     /// (sphere_<size>.mtx) for `benches/cholmod_compare.py`, which times CHOLMOD on it.
     Bench(BenchArgs),
+    /// The declared parameters of a cell model or protocol: key, default, range, source.
+    ///
+    /// Without a name, lists the tables. `--toml` prints a commented section with every
+    /// key at its default, ready to paste into a scenario.
+    ///
+    /// Examples:
+    ///   cellmech params                          # the tables
+    ///   cellmech params suspended-cell           # the [cell] keys of the suspended cell
+    ///   cellmech params micropipette-tension --toml
+    #[command(verbatim_doc_comment)]
+    Params(ParamsArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ParamsArgs {
+    /// Table name (`suspended-cell`, `micropipette-tension`, `microplate-compression`).
+    pub name: Option<String>,
+    /// Print a commented TOML section with the defaults.
+    #[arg(long, conflicts_with = "json")]
+    pub toml: bool,
+    /// Print the table as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]

@@ -610,6 +610,9 @@ impl ParamTable {
     /// The section as commented TOML with every key at its default (for `cellmech params`).
     pub fn toml_template(&self) -> String {
         let mut s = format!("[{}]\n", self.section);
+        if self.section == "protocol" {
+            s.push_str(&format!("kind = \"{}\"\n", self.name));
+        }
         for p in self.params {
             let dim = match p.kind {
                 ParamKind::Quantity(d) | ParamKind::QuantityList(d) => Some(d),

@@ -4,6 +4,7 @@ mod bench;
 mod build;
 mod check;
 mod example;
+mod params;
 mod run;
 
 use std::process::ExitCode;
@@ -18,5 +19,6 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Build(args) => build::build(&args),
         Command::Example(args) => example::example(&args),
         Command::Bench(args) => bench::bench(&args),
+        Command::Params(args) => params::params(&args),
     }
 }
