@@ -26,7 +26,8 @@ use crate::cell::BuiltCell;
 use crate::model::OutputSpec;
 use crate::protocol::results::ProtocolResults;
 use crate::protocol::{Protocol, ProtocolError};
-use crate::run::{Analysis, CellStudy, RunError, RunSummary};
+use crate::analysis::{Analysis, CellStudy};
+use crate::run::{RunError, RunSummary};
 
 /// The cell models.
 #[derive(Debug, Clone, PartialEq)]

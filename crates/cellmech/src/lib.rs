@@ -14,6 +14,7 @@
 //!
 //! Internal units: µm, nN, kPa (= nN/µm²), s; see [`units`].
 
+pub mod analysis;
 pub mod bench;
 pub mod cell;
 pub mod examples;

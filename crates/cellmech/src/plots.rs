@@ -5,7 +5,7 @@ use std::path::Path;
 use cellmech_io::{plot_xy, PlotSpec, Series, SeriesStyle};
 
 use crate::output::OutputWriter;
-use crate::scenario::Scenario;
+use crate::analysis::Analysis as Scenario;
 
 /// Draws the force–displacement curve of every requested curve (one file per curve), and
 /// of every rigid tool (force along its motion vs its displacement), and returns the file

@@ -12,33 +12,8 @@ use serde::Serialize;
 
 use crate::model::{build, BuildError};
 use crate::output::{OutputWriter, StepStats};
-use crate::model::ModelSpec;
 
-/// A model with its title and provenance, ready to run: what a scenario file resolves into
-/// and what an [`crate::experiment::Experiment`] builds.
-#[derive(Debug, Clone)]
-pub struct Analysis {
-    /// Title for outputs and plots.
-    pub title: String,
-    /// Where it came from (a scenario path, `<built-in: name>` or `<library>`).
-    pub origin: String,
-    /// The model: mesh, materials, structures, tools, steps, outputs.
-    pub model: ModelSpec,
-    /// The built-in cell model and its experiment, when there is one.
-    pub cell: Option<CellStudy>,
-    /// The scenario file as parsed, for echoing into `summary.json` (empty from Rust).
-    pub echo: toml::Table,
-}
-
-/// A cell model and the protocol run on it, for outputs and summaries.
-#[derive(Debug, Clone, Serialize)]
-pub struct CellStudy {
-    /// The cell.
-    #[serde(flatten)]
-    pub description: crate::cell::CellDescription,
-    /// The experiment's plan (typed handles to its tools and steps), when there is one.
-    pub protocol: Option<crate::protocol::ProtocolPlan>,
-}
+use crate::analysis::{Analysis, CellStudy};
 
 type Scenario = Analysis;
 
@@ -180,7 +155,7 @@ pub fn run(
     let last_step = writer.stats.last().map_or("start", |s| s.name.as_str());
     cellmech_io::plot_model_picture(
         &out_dir.join(&picture),
-        &crate::model::view::model_picture_at(
+        &crate::output::model_view::model_picture_at(
             &scenario.model,
             &deformed,
             format!("{}: end of step '{last_step}'", scenario.title),

@@ -20,10 +20,10 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
         .map(|c| serde_json::to_value(c))
         .transpose()
         .context("describing the cell")?;
-    let files = cellmech::model::view::write_model(
+    let files = cellmech::output::model_view::write_model(
         &scenario.model,
         &model,
-        &cellmech::model::view::ModelAbout {
+        &cellmech::output::model_view::ModelAbout {
             title: &scenario.title,
             origin: &scenario.origin,
             seed: scenario.cell.as_ref().map(|c| c.description.seed),

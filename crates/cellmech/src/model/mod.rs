@@ -7,7 +7,6 @@
 mod spec;
 pub mod structures;
 pub mod tools;
-pub mod view;
 
 pub use spec::{
     CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,

@@ -4,7 +4,7 @@
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::units::{Force, Length, Pressure};
+use crate::units::{Force, Length, Pressure, Stiffness};
 
 /// The whole scenario file.
 #[derive(Debug, Clone, Deserialize)]
@@ -42,7 +42,7 @@ pub struct ScenarioFile {
     pub output: OutputSection,
     /// Rigid tools (plates, pipettes, AFM tips, probes); see `scenario::tools`.
     #[serde(default, rename = "tool")]
-    pub tools: Vec<super::tools::ToolSection>,
+    pub tools: Vec<ToolSection>,
 }
 
 /// `[mesh]`: a generator (`source = "box"` or `"sphere"`) or a file (`source = "file"`).
@@ -152,7 +152,7 @@ pub struct StepSection {
     pub force: Vec<ForceSection>,
     /// Tool motions over the step (tools not listed hold).
     #[serde(default)]
-    pub tool: Vec<super::tools::StepToolSection>,
+    pub tool: Vec<StepToolSection>,
 }
 
 /// `[[step.fix]]`.
@@ -220,4 +220,51 @@ pub struct CurveSection {
     /// Report the force with the opposite sign (e.g. compression as positive).
     #[serde(default)]
     pub reverse_sign: bool,
+}
+
+/// `[[tool]]`: a rigid tool acting on a node set through contact.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSection {
+    /// Unique name; prefixes the tool's `curve.csv` columns.
+    pub name: Spanned<String>,
+    /// `plate`, `disk`, `paraboloid` or `sphere`.
+    pub shape: Spanned<String>,
+    /// Plate: a point of its surface.
+    pub point: Option<Spanned<[Length; 3]>>,
+    /// Disk or sphere: centre.
+    pub center: Option<Spanned<[Length; 3]>>,
+    /// Paraboloid: apex.
+    pub apex: Option<Spanned<[Length; 3]>>,
+    /// Plate or disk: normal pointing towards the body (numbers; normalised).
+    pub normal: Option<Spanned<[f64; 3]>>,
+    /// Paraboloid: axis pointing from the tip towards the body (numbers; normalised).
+    pub axis: Option<Spanned<[f64; 3]>>,
+    /// Disk or sphere: radius.
+    pub radius: Option<Spanned<Length>>,
+    /// Paraboloid: tip radius of curvature.
+    pub tip_radius: Option<Spanned<Length>>,
+    /// `frictionless` (default) or `bonded`.
+    pub contact: Option<Spanned<String>>,
+    /// The contact candidates (e.g. `surface`, or a set selected with `[[node_set]]`).
+    pub node_set: Spanned<String>,
+    /// Penalty ε (force per length); default chosen from the model.
+    pub penalty: Option<Spanned<Stiffness>>,
+    /// Penetration / bond-gap tolerance; default 1e-4 × the model size.
+    pub tolerance: Option<Spanned<Length>>,
+}
+
+/// `[[step.tool]]`: how a tool moves during a step (tools not listed hold their position).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepToolSection {
+    /// The tool's name.
+    pub name: Spanned<String>,
+    /// Pilot-point displacement over this step (default no motion).
+    #[serde(rename = "move")]
+    pub movement: Option<Spanned<[Length; 3]>>,
+    /// End the step where the tool's force along its motion reaches this value.
+    pub until_force: Option<Spanned<Force>>,
+    /// Accepted distance from `until_force` (default from the model's force scale).
+    pub force_tolerance: Option<Spanned<Force>>,
 }

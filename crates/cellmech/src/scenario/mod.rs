@@ -13,7 +13,7 @@ pub mod tools;
 
 use std::path::{Path, PathBuf};
 
-pub use crate::run::{Analysis, CellStudy};
+pub use crate::analysis::{Analysis, CellStudy};
 pub use crate::model::{
     CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
 };
@@ -21,7 +21,7 @@ pub use crate::model::{
 pub use resolve::resolve;
 
 /// A validated scenario in internal units (µm, nN, kPa): an [`Analysis`] ready to run.
-pub type Scenario = crate::run::Analysis;
+pub type Scenario = crate::analysis::Analysis;
 
 /// A scenario that could not be read or is inconsistent. Says which file, which line and
 /// key where known, what was expected and what was found.

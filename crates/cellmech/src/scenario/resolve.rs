@@ -130,7 +130,7 @@ pub fn resolve(
         Some(c) => (c.model.supports.clone(), c.model.shape_probes.clone()),
         None => (Vec::new(), Vec::new()),
     };
-    let study = cell.map(|c| crate::run::CellStudy {
+    let study = cell.map(|c| crate::analysis::CellStudy {
         description: c.description,
         protocol: plan,
     });

@@ -4,7 +4,6 @@
 
 use cellmech_fem::contact::{ContactKind, ToolShape};
 use cellmech_fem::mesh::Mesh;
-use serde::Deserialize;
 use toml::Spanned;
 
 use super::context::Ctx;
@@ -13,54 +12,8 @@ pub use crate::model::tools::{
     default_penalty, default_tolerance, largest_shear_modulus, mesh_diagonal, tool_program,
     ForceTarget, ToolMotion, ToolSpec, FORCE_TOLERANCE_FACTOR, PENALTY_FACTOR, TOLERANCE_FACTOR,
 };
-use crate::units::{Force, Length, Stiffness};
-
-/// `[[tool]]`: a rigid tool acting on a node set through contact.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ToolSection {
-    /// Unique name; prefixes the tool's `curve.csv` columns.
-    pub name: Spanned<String>,
-    /// `plate`, `disk`, `paraboloid` or `sphere`.
-    pub shape: Spanned<String>,
-    /// Plate: a point of its surface.
-    pub point: Option<Spanned<[Length; 3]>>,
-    /// Disk or sphere: centre.
-    pub center: Option<Spanned<[Length; 3]>>,
-    /// Paraboloid: apex.
-    pub apex: Option<Spanned<[Length; 3]>>,
-    /// Plate or disk: normal pointing towards the body (numbers; normalised).
-    pub normal: Option<Spanned<[f64; 3]>>,
-    /// Paraboloid: axis pointing from the tip towards the body (numbers; normalised).
-    pub axis: Option<Spanned<[f64; 3]>>,
-    /// Disk or sphere: radius.
-    pub radius: Option<Spanned<Length>>,
-    /// Paraboloid: tip radius of curvature.
-    pub tip_radius: Option<Spanned<Length>>,
-    /// `frictionless` (default) or `bonded`.
-    pub contact: Option<Spanned<String>>,
-    /// The contact candidates (e.g. `surface`, or a set selected with `[[node_set]]`).
-    pub node_set: Spanned<String>,
-    /// Penalty ε (force per length); default chosen from the model.
-    pub penalty: Option<Spanned<Stiffness>>,
-    /// Penetration / bond-gap tolerance; default 1e-4 × the model size.
-    pub tolerance: Option<Spanned<Length>>,
-}
-
-/// `[[step.tool]]`: how a tool moves during a step (tools not listed hold their position).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StepToolSection {
-    /// The tool's name.
-    pub name: Spanned<String>,
-    /// Pilot-point displacement over this step (default no motion).
-    #[serde(rename = "move")]
-    pub movement: Option<Spanned<[Length; 3]>>,
-    /// End the step where the tool's force along its motion reaches this value.
-    pub until_force: Option<Spanned<Force>>,
-    /// Accepted distance from `until_force` (default from the model's force scale).
-    pub force_tolerance: Option<Spanned<Force>>,
-}
+use super::file::{StepToolSection, ToolSection};
+use crate::units::Length;
 
 /// Resolves the `[[tool]]` sections against the mesh and materials.
 pub(super) fn resolve_tools(

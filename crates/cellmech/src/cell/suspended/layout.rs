@@ -110,13 +110,6 @@ pub struct SuspendedCellParams {
     pub seed: u64,
 }
 
-impl Default for SuspendedCellParams {
-    /// The defaults declared in [`super::params::SUSPENDED_CELL`].
-    fn default() -> Self {
-        super::params::defaults().0
-    }
-}
-
 impl SuspendedCellParams {
     /// Checks every parameter; the error says what was expected and what was found.
     pub fn validate(&self) -> Result<(), CellGeometryError> {

@@ -8,10 +8,14 @@
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Dimensionless, Length, Pressure};
 
-use super::layout::{MAX_IFS_PER_FA, MAX_MT_BOW, MAX_MT_ELEMENTS, MAX_ORIENTATION_TRIALS};
-use super::{
-    ActinMaterial, FaOrientation, IfAnchorRule, IntermediateMaterial, MeshResolution,
-    MicrotubuleMaterial, SuspendedCellMaterials, SuspendedCellParams,
+use super::cytoskeleton::IfAnchorRule;
+use super::geometry::FaOrientation;
+use super::layout::{
+    MeshResolution, SuspendedCellParams, MAX_IFS_PER_FA, MAX_MT_BOW, MAX_MT_ELEMENTS,
+    MAX_ORIENTATION_TRIALS,
+};
+use super::materials::{
+    ActinMaterial, IntermediateMaterial, MicrotubuleMaterial, SuspendedCellMaterials,
 };
 
 const fn p(
@@ -150,4 +154,18 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
 /// The defaults of the table.
 pub fn defaults() -> (SuspendedCellParams, SuspendedCellMaterials) {
     from_values(&ParamValues::defaults(&SUSPENDED_CELL))
+}
+
+impl Default for SuspendedCellParams {
+    /// The defaults declared in [`SUSPENDED_CELL`].
+    fn default() -> Self {
+        defaults().0
+    }
+}
+
+impl Default for SuspendedCellMaterials {
+    /// The defaults declared in [`SUSPENDED_CELL`].
+    fn default() -> Self {
+        defaults().1
+    }
 }

@@ -9,6 +9,8 @@ use cellmech_fem::element::KernelError;
 use cellmech_fem::solve::{FailureReason, IncrementReport, IterationReport, Observer, Problem};
 use cellmech_io::{CurveWriter, Field, PvdSeries, VtuBlock, VtuFrame};
 
+pub mod model_view;
+
 use crate::model::{BuiltModel, CurveDofs, ShapeProbe};
 
 /// Convergence statistics of one step.

@@ -12,8 +12,8 @@ use cellmech_io::{plot_model_picture, Field, LineGroup, ModelPicture, PvdSeries,
 use serde::Serialize;
 
 use crate::model::BuiltModel;
-use super::structures::FilamentElement;
-use super::ModelSpec;
+use crate::model::structures::FilamentElement;
+use crate::model::ModelSpec;
 
 /// Colours of well-known families (others cycle through a palette).
 fn family_color(family: &str, k: usize) -> (u8, u8, u8) {
@@ -125,7 +125,7 @@ pub struct ModelAbout<'a> {
     /// The cell model's description, when it is one.
     pub cell: Option<&'a serde_json::Value>,
     /// Plot format.
-    pub plot_format: super::PlotFormat,
+    pub plot_format: crate::model::PlotFormat,
 }
 
 /// Writes `model.pvd`/`model_0000.vtu`, `model.<png|svg>` and `model.json` into `dir`
