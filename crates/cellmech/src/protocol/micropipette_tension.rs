@@ -19,11 +19,11 @@ pub const MICROPIPETTE_TENSION: ParamTable = ParamTable {
     name: "micropipette-tension",
     section: "protocol",
     params: &[
-        ParamDef { key: "pipette_radius", kind: K::Quantity(Length), default: D::Number(4.0), bounds: Bounds::POSITIVE, doc: "radius of the pipettes' contact disks (below the cell radius)", source: "choice" },
-        ParamDef { key: "pinch", kind: K::Quantity(Length), default: D::Number(1.0), bounds: Bounds::POSITIVE, doc: "how far the pipettes press the cell together after touching (below D/4)", source: "choice" },
-        ParamDef { key: "elongation", kind: K::Quantity(Length), default: D::Number(6.3), bounds: Bounds::POSITIVE, doc: "end elongation from the unloaded reference state (up to 1.5 D)", source: "spec" },
-        ParamDef { key: "contact_force", kind: K::Quantity(Force), default: D::Number(0.1), bounds: Bounds::POSITIVE, doc: "force on the moving tool that counts as touching in the approach", source: "choice" },
-        ParamDef { key: "max_increment", kind: K::Number, default: D::Number(0.1), bounds: Bounds::new(0.0, false, 1.0, true), doc: "largest increment of the loading steps, fraction of the step", source: "choice" },
+        ParamDef { key: "pipette_radius", kind: K::Quantity(Length), default: D::Number(4.0), bounds: Bounds::POSITIVE, doc: "radius of the pipettes' contact disks (below the cell radius)", source: "choice: a holding pipette of 8 µm bore, a quarter of D" },
+        ParamDef { key: "pinch", kind: K::Quantity(Length), default: D::Number(1.0), bounds: Bounds::POSITIVE, doc: "how far the pipettes press the cell together after touching (below D/4)", source: "choice: \"slightly compressing\" (3 % of D)" },
+        ParamDef { key: "elongation", kind: K::Quantity(Length), default: D::Number(6.3), bounds: Bounds::POSITIVE, doc: "end elongation from the unloaded reference state (up to 1.5 D; `\"32 um\"` ≈ 100 %)", source: "spec (≈ 20 %)" },
+        ParamDef { key: "contact_force", kind: K::Quantity(Force), default: D::Number(0.1), bounds: Bounds::POSITIVE, doc: "force on the moving tool that counts as touching in the approach", source: "choice (0.2 % of the force at 6.3 µm)" },
+        ParamDef { key: "max_increment", kind: K::Number, default: D::Number(0.1), bounds: Bounds::new(0.0, false, 1.0, true), doc: "largest increment of the loading steps, fraction of the step", source: "choice (a curve point every 10 %)" },
     ],
 };
 

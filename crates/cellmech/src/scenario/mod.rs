@@ -65,6 +65,21 @@ pub enum ScenarioError {
     },
 }
 
+/// Adds "did you mean" to toml's "unknown field `x`, expected one of `a`, `b`" message.
+fn with_suggestion(message: String) -> String {
+    let Some(rest) = message.split("unknown field `").nth(1) else {
+        return message;
+    };
+    let Some((unknown, expected)) = rest.split_once('`') else {
+        return message;
+    };
+    let candidates: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    match crate::param::suggestion(candidates.iter().copied(), unknown) {
+        Some(k) => format!("{}\ndid you mean `{k}`?", message.trim_end()),
+        None => message,
+    }
+}
+
 /// Reads, parses and resolves a scenario file. Relative mesh paths are relative to it.
 pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
     let text = std::fs::read_to_string(path).map_err(|error| ScenarioError::Read {
@@ -83,7 +98,7 @@ pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
 pub fn parse(text: &str, origin: &str, base_dir: &Path) -> Result<Scenario, ScenarioError> {
     let raw: file::ScenarioFile = toml::from_str(text).map_err(|e| ScenarioError::Parse {
         path: origin.into(),
-        message: e.to_string(),
+        message: with_suggestion(e.to_string()),
     })?;
     let echo: toml::Table = toml::from_str(text).map_err(|e| ScenarioError::Parse {
         path: origin.into(),

@@ -39,6 +39,9 @@ const fn p(
 const POS: Bounds = Bounds::POSITIVE;
 const NONNEG: Bounds = Bounds::NON_NEGATIVE;
 const ANY: Bounds = Bounds::ANY;
+/// Mesh counts: at least 1, at most 64 (64 core divisions with 64 + 64 layers is ~3.4 million
+/// hex8, beyond what one machine solves; larger values are typos).
+const MESH_COUNT: Bounds = Bounds::new(1.0, true, 64.0, true);
 const POISSON: Bounds = Bounds::new(-1.0, false, 0.5, false);
 const SPEC: &str = "spec";
 const CHOICE: &str = "choice";
@@ -48,40 +51,40 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
     name: "suspended-cell",
     section: "cell",
     params: &[
-        p("cell_diameter", K::Quantity(Length), D::Number(32.264), POS, "cell diameter D", SPEC),
-        p("nucleus_diameter", K::Quantity(Length), D::Number(12.9), POS, "nucleus diameter (concentric)", SPEC),
+        p("cell_diameter", K::Quantity(Length), D::Number(32.264), POS, "cell diameter D", "spec"),
+        p("nucleus_diameter", K::Quantity(Length), D::Number(12.9), POS, "nucleus diameter (concentric)", "spec (the comparable published model)"),
         p("seed", K::Seed, D::Seed(2024), ANY, "seed of every random choice (MT bows, orientation search)", CHOICE),
-        p("resolution", K::Choice(&["default", "fine"]), D::Word("default"), ANY, "mesh: 2816 (default) or 14 504 (fine) hex8", CHOICE),
-        p("core_divisions", K::Count, D::Absent("from `resolution`"), Bounds::new(1.0, true, 1e6, true), "elements along the central cube's edge (even)", CHOICE),
-        p("shell_layers", K::Count, D::Absent("from `resolution`"), Bounds::new(1.0, true, 1e6, true), "radial element layers inside the nucleus surface", CHOICE),
-        p("outer_layers", K::Count, D::Absent("from `resolution`"), Bounds::new(1.0, true, 1e6, true), "radial element layers of cytoplasm", CHOICE),
-        p("fa_orientation", K::Choice(&["symmetric", "optimized"]), D::Word("symmetric"), ANY, "FA pattern: on the ±x, ±y, ±z poles, or rotated to fit the mesh", CHOICE),
+        p("resolution", K::Choice(&["default", "fine"]), D::Word("default"), ANY, "mesh: 2816 hex8 (core 8 divisions, 3 + 3 layers) or 14 504 (`fine`)", "choice ([geometry](suspended-cell-geometry.md))"),
+        p("core_divisions", K::Count, D::Absent("from `resolution`"), MESH_COUNT, "elements along the central cube's edge (even; the CI tests use 4, 2, 2: 448 hex8)", CHOICE),
+        p("shell_layers", K::Count, D::Absent("from `resolution`"), MESH_COUNT, "radial element layers inside the nucleus surface", CHOICE),
+        p("outer_layers", K::Count, D::Absent("from `resolution`"), MESH_COUNT, "radial element layers of cytoplasm", CHOICE),
+        p("fa_orientation", K::Choice(&["symmetric", "optimized"]), D::Word("symmetric"), ANY, "FA pattern: on the ±x, ±y, ±z poles, or rotated to fit the mesh", "choice ([geometry](suspended-cell-geometry.md))"),
         p("orientation_trials", K::Count, D::Count(2000), Bounds::new(0.0, true, MAX_ORIENTATION_TRIALS as f64, true), "random rotations tried by `fa_orientation = \"optimized\"`", CHOICE),
-        p("cytoplasm.shear_modulus", K::Quantity(Pressure), D::Number(0.17), POS, "cytoplasm shear modulus G (neo-Hookean)", SPEC),
-        p("cytoplasm.poisson_ratio", K::Number, D::Number(0.49), POISSON, "cytoplasm Poisson's ratio (compressibility)", SPEC),
-        p("nucleus.shear_modulus", K::Quantity(Pressure), D::Number(1.7), POS, "nucleus shear modulus G", SPEC),
+        p("cytoplasm.shear_modulus", K::Quantity(Pressure), D::Number(0.17), POS, "cytoplasm shear modulus G (neo-Hookean)", "spec (E = 0.5 kPa)"),
+        p("cytoplasm.poisson_ratio", K::Number, D::Number(0.49), POISSON, "cytoplasm Poisson's ratio (compressibility)", "spec (a parameter, as the spec asks)"),
+        p("nucleus.shear_modulus", K::Quantity(Pressure), D::Number(1.7), POS, "nucleus shear modulus G", "spec (E = 5 kPa)"),
         p("nucleus.poisson_ratio", K::Number, D::Number(0.49), POISSON, "nucleus Poisson's ratio", SPEC),
-        p("membrane.youngs_modulus", K::Quantity(Pressure), D::Number(1000.0), POS, "cell membrane Young's modulus (incompressible, G = E/3)", SPEC),
+        p("membrane.youngs_modulus", K::Quantity(Pressure), D::Number(1000.0), POS, "cell membrane (CM) Young's modulus (incompressible, G = E/3)", "spec (CM)"),
         p("membrane.thickness", K::Quantity(Length), D::Number(0.01), POS, "cell membrane thickness", SPEC),
-        p("actin.youngs_modulus", K::Quantity(Pressure), D::Number(2.6e6), POS, "actin filament Young's modulus", SPEC),
+        p("actin.youngs_modulus", K::Quantity(Pressure), D::Number(2.6e6), POS, "actin filament Young's modulus", "spec (EA = 100 nN)"),
         p("actin.diameter", K::Quantity(Length), D::Number(0.007), POS, "actin filament diameter", SPEC),
         p("actin.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin prestrain (tension-only trusses)", SPEC),
-        p("microtubules.youngs_modulus", K::Quantity(Pressure), D::Number(1.2e6), POS, "microtubule Young's modulus", SPEC),
+        p("microtubules.youngs_modulus", K::Quantity(Pressure), D::Number(1.2e6), POS, "microtubule Young's modulus", "spec (EA = 317 nN, EI = 0.018 nN·µm²)"),
         p("microtubules.outer_diameter", K::Quantity(Length), D::Number(0.025), POS, "microtubule outer diameter (hollow)", SPEC),
         p("microtubules.inner_diameter", K::Quantity(Length), D::Number(0.017), POS, "microtubule inner diameter", SPEC),
         p("microtubules.poisson_ratio", K::Number, D::Number(0.3), POISSON, "Poisson's ratio of the MT section (its shear modulus)", CHOICE),
-        p("microtubules.elements", K::Count, D::Count(8), Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true), "beam elements per MT", CHOICE),
-        p("microtubules.bow_min", K::Quantity(Dimensionless), D::Number(0.05), Bounds::new(0.0, true, MAX_MT_BOW, true), "smallest sideways bow at mid-length, fraction of the chord", CHOICE),
+        p("microtubules.elements", K::Count, D::Count(8), Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true), "beam elements per MT", "choice (\"several\")"),
+        p("microtubules.bow_min", K::Quantity(Dimensionless), D::Number(0.05), Bounds::new(0.0, true, MAX_MT_BOW, true), "smallest sideways bow at mid-length, fraction of the chord", "choice (\"varying curvature\")"),
         p("microtubules.bow_max", K::Quantity(Dimensionless), D::Number(0.20), Bounds::new(0.0, true, MAX_MT_BOW, true), "largest bow, fraction of the chord", CHOICE),
-        p("microtubules.clearance_margin", K::Quantity(Length), D::Number(0.25), NONNEG, "smallest distance of an MT from the nucleus surface", CHOICE),
-        p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", CHOICE),
+        p("microtubules.clearance_margin", K::Quantity(Length), D::Number(0.25), NONNEG, "smallest distance of an MT from the nucleus surface", "choice (\"never through the nucleus\")"),
+        p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", "choice (\"near the nucleus\")"),
         p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
-        p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", SPEC),
+        p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", "spec (EA = 0.60 nN)"),
         p("intermediate.diameter", K::Quantity(Length), D::Number(0.010), POS, "intermediate filament diameter", SPEC),
         p("intermediate.slack", K::Quantity(Dimensionless), D::Number(0.20), NONNEG, "slack: no force below (1 + slack) × the initial length", SPEC),
-        p("intermediate.per_fa", K::Count, D::Count(2), Bounds::new(1.0, true, MAX_IFS_PER_FA as f64, true), "IFs per FA (the spec asks for at least 2)", SPEC),
+        p("intermediate.per_fa", K::Count, D::Count(2), Bounds::new(1.0, true, MAX_IFS_PER_FA as f64, true), "IFs per FA", "spec (\"at least two\")"),
         p("intermediate.phase_deg", K::Number, D::Number(0.0), ANY, "angle (degrees) of the first IF on the FA's tangent circle", CHOICE),
-        p("intermediate.anchor", K::Choice(&["nearest", "nearest-visible"]), D::Word("nearest"), ANY, "which nucleus node anchors an IF: nearest to the tangent point, or nearest visible", SPEC),
+        p("intermediate.anchor", K::Choice(&["nearest", "nearest-visible"]), D::Word("nearest"), ANY, "which nucleus node anchors an IF: nearest to the tangent point, or nearest visible", "spec (\"nearest to that circle\")"),
     ],
 };
 
