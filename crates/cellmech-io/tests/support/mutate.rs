@@ -127,6 +127,35 @@ pub const TOML_VALUES: &[&str] = &[
     "{ a = 1 }",
 ];
 
+/// Numbers a quoted quantity (`"1.5 um"`) may get instead of its own number.
+pub const QUANTITY_NUMBERS: &[&str] = &[
+    "0", "-0", "-3", "1e-30", "1e9", "1e308", "1e400", "-1e400", "nan", "NaN", "inf", "-inf", "x",
+    "", "1e", "0.5", "100", "-100",
+];
+
+/// TOML numbers a bare number may become: zero, negatives, huge counts, NaN.
+pub const TOML_NUMBERS: &[&str] = &[
+    "0",
+    "-1",
+    "1",
+    "2",
+    "3",
+    "5",
+    "1.5",
+    "-0.5",
+    "100",
+    "400",
+    "65536",
+    "1e9",
+    "1000000000",
+    "4294967296",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "nan",
+    "inf",
+    "-inf",
+];
+
 /// Units a quantity may get instead of its own.
 pub const UNITS: &[&str] = &[
     "furlong", "", "um um", "m", "mm", "nm", "kPa", "GPa", "Pa", "nN", "N", "%", "\u{b5}m", "UM",
@@ -197,6 +226,10 @@ pub enum Mutation {
     ReplaceToken(Index, String),
     /// Replace the value of the n-th `key = value` line.
     ReplaceValue(Index, String),
+    /// Replace the n-th number inside a quoted string (`"1.5 um"`, `"24%"`).
+    ReplaceQuotedNumber(Index, String),
+    /// Replace the n-th number outside quoted strings and comments (a TOML number).
+    ReplaceBareNumber(Index, String),
     /// Replace the unit of the n-th quoted quantity (`"1.5 um"`).
     ReplaceUnit(Index, String),
     /// Append a copy of the n-th `[section]` / `[[section]]` with its lines.
@@ -219,16 +252,57 @@ pub fn generic_mutation() -> impl Strategy<Value = Mutation> {
     ]
 }
 
-/// A mutation of a TOML scenario: the generic ones plus value, unit and section edits.
+/// A mutation of a TOML scenario: the generic ones plus value, number, unit and section
+/// edits that keep the TOML well-formed, so that most cases reach the scenario checks.
 pub fn toml_mutation() -> impl Strategy<Value = Mutation> {
     prop_oneof![
-        4 => generic_mutation(),
+        3 => generic_mutation(),
         4 => (any::<Index>(), prop::sample::select(TOML_VALUES).prop_map(str::to_string))
             .prop_map(|(i, v)| Mutation::ReplaceValue(i, v)),
+        4 => (any::<Index>(), prop::sample::select(QUANTITY_NUMBERS).prop_map(str::to_string))
+            .prop_map(|(i, v)| Mutation::ReplaceQuotedNumber(i, v)),
+        3 => (any::<Index>(), prop::sample::select(TOML_NUMBERS).prop_map(str::to_string))
+            .prop_map(|(i, v)| Mutation::ReplaceBareNumber(i, v)),
         2 => (any::<Index>(), prop::sample::select(UNITS).prop_map(str::to_string))
             .prop_map(|(i, u)| Mutation::ReplaceUnit(i, u)),
         1 => any::<Index>().prop_map(Mutation::DuplicateSection),
     ]
+}
+
+/// `text` without its comment-only lines: mutations of TOML seeds then hit keys and values.
+pub fn strip_comment_lines(text: &str) -> String {
+    text.split_inclusive('\n')
+        .filter(|l| !l.trim_start().starts_with('#'))
+        .collect()
+}
+
+/// Whether each byte of `text` is inside a quoted string or a `#` comment (TOML, one line).
+fn quoted_or_comment(text: &str) -> (Vec<bool>, Vec<bool>) {
+    let mut quoted = vec![false; text.len()];
+    let mut comment = vec![false; text.len()];
+    let (mut in_quote, mut in_comment) = (false, false);
+    for (i, c) in text.char_indices() {
+        if c == '\n' {
+            in_quote = false;
+            in_comment = false;
+        } else if !in_comment && c == '"' {
+            in_quote = !in_quote;
+        } else if !in_quote && c == '#' {
+            in_comment = true;
+        }
+        quoted[i] = in_quote;
+        comment[i] = in_comment;
+    }
+    (quoted, comment)
+}
+
+/// Number spans inside (`inside`) or outside quoted strings, never in comments.
+fn number_spans_where(text: &str, inside: bool) -> Vec<(usize, usize)> {
+    let (quoted, comment) = quoted_or_comment(text);
+    number_spans(text)
+        .into_iter()
+        .filter(|&(s, _)| quoted[s] == inside && !comment[s])
+        .collect()
 }
 
 /// A number from [`NUMBERS`] or an arbitrary integer or float.
