@@ -329,3 +329,87 @@ fn huge_counts_are_rejected_before_allocating() {
         }
     }
 }
+
+/// An `Index` that picks position `k` of `n`, found by sampling (`Index` is opaque).
+fn index_for(
+    k: usize,
+    n: usize,
+    runner: &mut proptest::test_runner::TestRunner,
+) -> proptest::sample::Index {
+    use proptest::strategy::ValueTree;
+    loop {
+        let i = any::<proptest::sample::Index>()
+            .new_tree(runner)
+            .unwrap()
+            .current();
+        if i.index(n) == k {
+            return i;
+        }
+    }
+}
+
+/// Every single-number edit of every shipped example: each number (in a quantity or bare)
+/// replaced by each value of the pools (about 6000 parses, 30 s in release); run it with
+/// `cargo test --release -p cellmech --test scenario_properties -- --ignored`.
+#[test]
+#[ignore = "exhaustive, about 30 s: run on demand"]
+fn every_single_number_edit_of_the_examples_is_an_error_not_a_panic() {
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    let dir = case_dir();
+    let mut cases = 0;
+    for example in EXAMPLES {
+        let text = strip_comment_lines(example.text);
+        for (quoted, pool) in [
+            (true, mutate::QUANTITY_NUMBERS),
+            (false, mutate::TOML_NUMBERS),
+        ] {
+            let n = mutate::count_numbers(&text, quoted);
+            for k in 0..n {
+                let i = index_for(k, n, &mut runner);
+                for value in pool {
+                    let m = if quoted {
+                        Mutation::ReplaceQuotedNumber(i.clone(), value.to_string())
+                    } else {
+                        Mutation::ReplaceBareNumber(i.clone(), value.to_string())
+                    };
+                    let edited = m.apply(&text);
+                    cases += 1;
+                    if let Err(e) = check_scenario(edited, &dir, "") {
+                        panic!("{} position {k} -> {value}: {e}", example.name);
+                    }
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    eprintln!("{cases} single-number edits");
+}
+
+/// Every single-value edit of every shipped example: the value of each `key = value` line
+/// replaced by each value of `TOML_VALUES` (wrong types, bad units, out-of-range numbers,
+/// empty arrays; about 11 000 parses, 25 s in release); run it with `-- --ignored`.
+#[test]
+#[ignore = "exhaustive, about 30 s: run on demand"]
+fn every_single_value_edit_of_the_examples_is_an_error_not_a_panic() {
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    let dir = case_dir();
+    let mut cases = 0;
+    for example in EXAMPLES {
+        let text = strip_comment_lines(example.text);
+        let n = mutate::count_key_values(&text);
+        for k in 0..n {
+            let i = index_for(k, n, &mut runner);
+            for value in mutate::TOML_VALUES {
+                let edited = Mutation::ReplaceValue(i.clone(), value.to_string()).apply(&text);
+                cases += 1;
+                if let Err(e) = check_scenario(edited, &dir, "") {
+                    panic!("{} key line {k} -> {value}: {e}", example.name);
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    eprintln!("{cases} single-value edits");
+}

@@ -296,6 +296,19 @@ fn quoted_or_comment(text: &str) -> (Vec<bool>, Vec<bool>) {
     (quoted, comment)
 }
 
+/// How many `key = value` lines `text` has.
+pub fn count_key_values(text: &str) -> usize {
+    split_lines(text)
+        .iter()
+        .filter(|l| key_value(l).is_some())
+        .count()
+}
+
+/// How many numbers `text` has inside (`quoted`) or outside quoted strings.
+pub fn count_numbers(text: &str, quoted: bool) -> usize {
+    number_spans_where(text, quoted).len()
+}
+
 /// Number spans inside (`inside`) or outside quoted strings, never in comments.
 fn number_spans_where(text: &str, inside: bool) -> Vec<(usize, usize)> {
     let (quoted, comment) = quoted_or_comment(text);
