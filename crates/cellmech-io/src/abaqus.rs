@@ -13,7 +13,7 @@ use std::path::Path;
 use cellmech_fem::mesh::{ElementBlock, ElementKind, Mesh};
 
 use crate::error::{read_text, ReadError};
-use crate::lines::{parse_token, Lines};
+use crate::lines::{parse_finite, parse_token, Lines};
 
 /// One element of a [`Mesh`]: block index and element index inside the block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -310,6 +310,7 @@ impl Parser {
             }
             Mode::Nset { name, generate } => {
                 let labels = self.set_members(lines, no, line, *generate, true)?;
+                let referenced_set = labels.iter().any(|m| matches!(m, Member::Set(_)));
                 let mut indices = Vec::with_capacity(labels.len());
                 for member in labels {
                     match member {
@@ -327,11 +328,18 @@ impl Parser {
                 let key = name.to_ascii_uppercase();
                 if let Some(set) = self.nsets.get_mut(&key) {
                     set.1.extend(indices);
+                    if referenced_set {
+                        // A set that names itself (or two that name each other) would double
+                        // on every line; the order does not matter (sorted at the end).
+                        set.1.sort_unstable();
+                        set.1.dedup();
+                    }
                 }
                 Ok(())
             }
             Mode::Elset { name, generate } => {
                 let labels = self.set_members(lines, no, line, *generate, false)?;
+                let referenced_set = labels.iter().any(|m| matches!(m, Member::Set(_)));
                 let mut refs = Vec::with_capacity(labels.len());
                 for member in labels {
                     match member {
@@ -349,6 +357,10 @@ impl Parser {
                 let key = name.to_ascii_uppercase();
                 if let Some(set) = self.elsets.get_mut(&key) {
                     set.1.extend(refs);
+                    if referenced_set {
+                        set.1.sort_unstable();
+                        set.1.dedup();
+                    }
                 }
                 Ok(())
             }
@@ -369,7 +381,7 @@ impl Parser {
         let label: i64 = parse_token(lines, no, tokens[0], "an integer node label")?;
         let mut p = [0.0; 3];
         for (k, t) in tokens[1..].iter().take(3).enumerate() {
-            p[k] = parse_token(lines, no, t, &format!("a number for coordinate {}", k + 1))?;
+            p[k] = parse_finite(lines, no, t, &format!("a number for coordinate {}", k + 1))?;
         }
         let index = self.nodes.len();
         if self.node_index.insert(label, index).is_some() {
@@ -457,10 +469,22 @@ impl Parser {
                     format!("GENERATE needs start <= end and step > 0, found '{line}'"),
                 ));
             }
-            if (end - start) / step >= 100_000_000 {
+            // Every generated label must be defined, so a range with more labels than there
+            // are nodes (elements) is wrong: say so before allocating it. i128: the span of
+            // two i64 labels does not fit an i64.
+            let count = (i128::from(end) - i128::from(start)) / i128::from(step) + 1;
+            let (defined, what) = if nodes {
+                (self.node_index.len(), "nodes")
+            } else {
+                (self.element_index.len(), "elements")
+            };
+            if count > defined as i128 {
                 return Err(lines.error(
                     no,
-                    format!("GENERATE range of more than 10^8 labels, found '{line}'"),
+                    format!(
+                        "GENERATE range of {count} labels, but only {defined} {what} are defined, \
+                         found '{line}'"
+                    ),
                 ));
             }
             return Ok((start..=end)
@@ -518,6 +542,9 @@ impl Parser {
         }
         if let Some(s) = self.nsets.get_mut(&set.to_ascii_uppercase()) {
             s.1.extend(nodes);
+            // Repeated keyword lines must not grow the set without bound.
+            s.1.sort_unstable();
+            s.1.dedup();
         }
         Ok(())
     }

@@ -12,7 +12,7 @@ use std::path::Path;
 use cellmech_fem::mesh::{ElementBlock, ElementKind, Mesh};
 
 use crate::error::ReadError;
-use crate::lines::{parse_token, Lines};
+use crate::lines::{parse_finite, parse_token, Lines};
 
 /// Reads a Gmsh MSH 4.1 ASCII file.
 pub fn read_gmsh(path: &Path) -> Result<Mesh, ReadError> {
@@ -169,7 +169,8 @@ fn read_entities(lines: &mut Lines<'_>, state: &mut GmshState) -> Result<(), Rea
             }
             let tag: i64 = parse_token(lines, no, tokens[0], "an entity tag")?;
             let n: usize = parse_token(lines, no, tokens[first_phys], "a physical tag count")?;
-            if tokens.len() < first_phys + 1 + n {
+            // n comes from the file: compare without overflow.
+            if tokens.len() - first_phys - 1 < n {
                 return Err(lines.error(
                     no,
                     format!(
@@ -198,7 +199,10 @@ fn read_nodes(lines: &mut Lines<'_>, state: &mut GmshState) -> Result<(), ReadEr
         4,
         "4 values 'numEntityBlocks numNodes minTag maxTag'",
     )?;
-    state.nodes.reserve((header[1] as usize).min(1 << 24));
+    // The count comes from the file: reserve no more than the lines left can hold.
+    state
+        .nodes
+        .reserve((header[1] as usize).min(lines.remaining()));
     for _ in 0..header[0] {
         let (no, line) = lines.expect_line("a node block header")?;
         let block = ints(
@@ -228,7 +232,7 @@ fn read_nodes(lines: &mut Lines<'_>, state: &mut GmshState) -> Result<(), ReadEr
             }
             let mut p = [0.0; 3];
             for k in 0..3 {
-                p[k] = parse_token(lines, no, tokens[k], "a coordinate")?;
+                p[k] = parse_finite(lines, no, tokens[k], "a coordinate")?;
             }
             state.nodes.push(p);
         }

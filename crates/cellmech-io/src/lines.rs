@@ -26,6 +26,11 @@ impl<'a> Lines<'a> {
         Some((self.next, line.trim()))
     }
 
+    /// The number of lines not read yet.
+    pub(crate) fn remaining(&self) -> usize {
+        self.lines.len() - self.next
+    }
+
     /// The next line, without consuming it.
     pub(crate) fn peek(&self) -> Option<(usize, &'a str)> {
         self.lines.get(self.next).map(|l| (self.next + 1, l.trim()))
@@ -71,4 +76,26 @@ pub(crate) fn parse_token<T: std::str::FromStr>(
         .trim()
         .parse()
         .map_err(|_| lines.error(line, format!("expected {what}, found '{}'", token.trim())))
+}
+
+/// Parses one token as a finite `f64` (a coordinate): `NaN`, `inf` and overflowing numbers
+/// such as `1e400` are errors, like any other token that is not a number.
+pub(crate) fn parse_finite(
+    lines: &Lines<'_>,
+    line: usize,
+    token: &str,
+    what: &str,
+) -> Result<f64, ReadError> {
+    let x: f64 = parse_token(lines, line, token, what)?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(lines.error(
+            line,
+            format!(
+                "expected {what}, found '{}', which is not finite",
+                token.trim()
+            ),
+        ))
+    }
 }
