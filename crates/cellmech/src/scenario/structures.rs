@@ -416,7 +416,24 @@ fn filament_pairs(
             let mut ends = [0usize; 2];
             for (end, point) in pair.iter().enumerate() {
                 let p = point.map(|l| l.0);
+                if !p.iter().all(|c| c.is_finite() && c.abs() < 1e12) {
+                    return Err(ctx.invalid(
+                        Some(points.span()),
+                        &key(&format!("points[{j}][{end}]")),
+                        format!(
+                            "expected a point with finite coordinates within the model; found ({}, {}, {}) µm",
+                            p[0], p[1], p[2]
+                        ),
+                    ));
+                }
                 let (node, dist) = nearest_node(mesh, p);
+                if mesh.nodes.is_empty() {
+                    return Err(ctx.invalid(
+                        Some(points.span()),
+                        &key(&format!("points[{j}][{end}]")),
+                        "the mesh has no nodes to attach the filament to",
+                    ));
+                }
                 if !(dist <= tol) {
                     return Err(ctx.invalid(
                         Some(points.span()),
