@@ -48,7 +48,11 @@ fn assert_term(
     let checks: Vec<TermCheck> = check_term(term, dof_map, u, h).expect("evaluable state");
     assert!(!checks.is_empty(), "{what}: no element");
     for c in &checks {
-        assert!(c.passes(tol, sym_tol), "{what}: element {}: {c:?}", c.element);
+        assert!(
+            c.passes(tol, sym_tol),
+            "{what}: element {}: {c:?}",
+            c.element
+        );
         if let Some(a) = abs_tol {
             assert!(
                 c.gradient.max_abs_error < a && c.jacobian.max_abs_error < a,
@@ -73,11 +77,16 @@ fn hex8_both_formulations() {
     let mut mesh = box_mesh([0.0; 3], [2.0, 1.5, 1.0], [2, 2, 2], "block").unwrap();
     perturb_interior_nodes(&mut mesh, 0.2, 3).unwrap();
     let mut rng = Lcg(11);
-    let u: Vec<f64> = (0..3 * mesh.num_nodes()).map(|_| 0.08 * rng.next()).collect();
+    let u: Vec<f64> = (0..3 * mesh.num_nodes())
+        .map(|_| 0.08 * rng.next())
+        .collect();
     let map = DofMap::translational(mesh.num_nodes());
     for ratio in [1.0, 1000.0] {
         let law = NeoHookean::new(0.7, 0.7 * ratio).unwrap();
-        for form in [Hex8Formulation::MeanDilatation, Hex8Formulation::Displacement] {
+        for form in [
+            Hex8Formulation::MeanDilatation,
+            Hex8Formulation::Displacement,
+        ] {
             let block = ContinuumBlock::new(&mesh.blocks[0], &mesh.nodes, law, form).unwrap();
             let what = format!("hex8 {form:?} K/G={ratio}");
             assert_term(&what, &block, &map, &u, 1e-6, 1e-6, 1e-13, None);
@@ -110,8 +119,8 @@ fn membrane_quad4_and_tri3() {
             })
             .map(|v| v + 0.1 * rng.next())
             .collect();
-        let quad = MembraneSet::new("q", ElementKind::Quad4, vec![0, 1, 2, 3], &nodes, 3.0, 0.2)
-            .unwrap();
+        let quad =
+            MembraneSet::new("q", ElementKind::Quad4, vec![0, 1, 2, 3], &nodes, 3.0, 0.2).unwrap();
         assert_term("membrane quad4", &quad, &map, &u, 1e-6, 1e-7, 1e-12, None);
         let tri =
             MembraneSet::new("t", ElementKind::Tri3, vec![4, 5, 6], &nodes, 2.0, 0.01).unwrap();
@@ -244,7 +253,16 @@ fn pressure_load_and_volume_control() {
     let mut u = u;
     u.extend([1.7, 0.4, 0.0]);
     let map = DofMap::translational(9);
-    assert_term("volume control", &vc, &map, &u, 1e-6, 1e-8, 1e-14, Some(1e-8));
+    assert_term(
+        "volume control",
+        &vc,
+        &map,
+        &u,
+        1e-6,
+        1e-8,
+        1e-14,
+        Some(1e-8),
+    );
 }
 
 fn tool(shape: ToolShape, kind: ContactKind, x: &[[f64; 3]]) -> RigidContact {
@@ -291,7 +309,10 @@ fn contact_frictionless_active_and_bonded() {
         let mut r = [0.0; 3];
         for e in 0..3 {
             c.evaluate(e, &u[3 * e..3 * e + 3], &mut r, None).unwrap();
-            assert!(r.iter().any(|&v| v != 0.0), "{shape:?}: node {e} must be active");
+            assert!(
+                r.iter().any(|&v| v != 0.0),
+                "{shape:?}: node {e} must be active"
+            );
         }
         let what = format!("frictionless {shape:?}");
         assert_term(&what, &c, &map, &u, 1e-7, 1e-6, 1e-15, Some(1e-6));
@@ -303,7 +324,11 @@ fn contact_frictionless_active_and_bonded() {
         });
         b.commit(&u, &map);
         assert_eq!(b.bonded_count(), 3, "{shape:?}");
-        let pulled: Vec<f64> = u.iter().enumerate().map(|(i, v)| v - 0.1 * (i % 3) as f64).collect();
+        let pulled: Vec<f64> = u
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v - 0.1 * (i % 3) as f64)
+            .collect();
         let what = format!("bonded {shape:?}");
         assert_term(&what, &b, &map, &pulled, 1e-7, 1e-6, 1e-15, Some(1e-6));
     }

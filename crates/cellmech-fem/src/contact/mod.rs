@@ -318,10 +318,7 @@ impl ElementSet for RigidContact {
             (format!("{}_force_z_nN", self.name), f[2]),
         ];
         if let Some(m) = self.motion_direction(self.last_step) {
-            out.push((
-                format!("{}_force_along_motion_nN", self.name),
-                dot(&f, &m),
-            ));
+            out.push((format!("{}_force_along_motion_nN", self.name), dot(&f, &m)));
         }
         out.push((
             format!("{}_max_penetration_um", self.name),

@@ -1,10 +1,10 @@
 //! Contact on spring-supported nodes, where the exact answers are known.
 
 use super::*;
-use crate::term::Term;
 use crate::element::spring::SpringSet;
 use crate::linsolve::DenseSolver;
 use crate::solve::{Motion, Problem, Step};
+use crate::term::Term;
 
 /// Node 1 hangs on a spring (k = 2 nN/um) from the fixed node 0 above it, 1 um apart.
 fn spring_and_tool(kind: ContactKind, program: Vec<[f64; 3]>) -> Problem {

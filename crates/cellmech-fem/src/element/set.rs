@@ -77,7 +77,11 @@ pub trait ElementSet: Send + Sync {
     }
 
     /// Per-element results for writers ([`Term::outputs`]).
-    fn cell_outputs(&self, _u: &[f64], _dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
+    fn cell_outputs(
+        &self,
+        _u: &[f64],
+        _dof_map: &DofMap,
+    ) -> Result<Option<TermOutput>, KernelError> {
         Ok(None)
     }
 

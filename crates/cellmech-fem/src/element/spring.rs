@@ -2,8 +2,8 @@
 //! Π = k/2 (ℓ − L)², ℓ = |x₂ − x₁|. Used as elastic supports and as the simplest
 //! geometrically nonlinear term for solver tests.
 
-use super::KernelError;
 use super::ElementSet;
+use super::KernelError;
 use crate::math::vec3::norm;
 
 /// Energy, residual (6) and tangent (6×6, row-major) of a spring of stiffness `k` (nN/µm)

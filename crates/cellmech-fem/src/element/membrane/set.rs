@@ -2,8 +2,8 @@
 //! per-element outputs.
 
 use super::kernel::{
-    membrane_quad4_evaluate, membrane_state, membrane_tri3_evaluate, MembraneState,
-    Quad4Reference, Tri3Reference,
+    membrane_quad4_evaluate, membrane_state, membrane_tri3_evaluate, MembraneState, Quad4Reference,
+    Tri3Reference,
 };
 use crate::dof::DofMap;
 use crate::element::{ElementSet, KernelError};
@@ -27,7 +27,9 @@ pub enum MembraneError {
     #[error("membrane set '{set}': connectivity length {len} is not a multiple of {per}")]
     RaggedConnectivity { set: String, len: usize, per: usize },
     /// A connectivity entry refers to a missing node.
-    #[error("membrane set '{set}': element {element} refers to node {node}, but there are only {num_nodes} nodes")]
+    #[error(
+        "membrane set '{set}': element {element} refers to node {node}, but there are only {num_nodes} nodes"
+    )]
     MissingNode {
         set: String,
         element: usize,
@@ -107,7 +109,7 @@ impl MembraneSet {
                         element: i / per,
                         node,
                         num_nodes: nodes.len(),
-                    })
+                    });
                 }
             }
         }

@@ -143,8 +143,7 @@ fn membrane_rejects_degenerate_elements_and_bad_parameters() {
     let err = MembraneSet::new("cm", ElementKind::Hex8, vec![0; 8], &nodes, 1.0, 0.1);
     assert!(matches!(err, Err(MembraneError::UnsupportedKind { .. })));
     // A current configuration collapsed to a line is reported, not a NaN.
-    let set =
-        MembraneSet::new("cm", ElementKind::Tri3, vec![0, 1, 2], &nodes, 1.0, 0.1).unwrap();
+    let set = MembraneSet::new("cm", ElementKind::Tri3, vec![0, 1, 2], &nodes, 1.0, 0.1).unwrap();
     let u = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, -1.0, 0.0];
     let mut r = [0.0; 9];
     assert!(matches!(

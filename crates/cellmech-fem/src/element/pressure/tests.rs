@@ -34,9 +34,7 @@ fn pressure_volume_of_closed_surfaces_is_exact() {
         + f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0]);
     let u: Vec<f64> = nodes
         .iter()
-        .flat_map(|x| {
-            (0..3).map(move |i| (0..3).map(|j| f[i][j] * x[j]).sum::<f64>() - x[i] + 5.0)
-        })
+        .flat_map(|x| (0..3).map(move |i| (0..3).map(|j| f[i][j] * x[j]).sum::<f64>() - x[i] + 5.0))
         .collect();
     let v = s.volume(&u, &DofMap::translational(8));
     assert!((v - det).abs() < 1e-13, "volume {v} vs det F {det}");

@@ -155,8 +155,7 @@ fn truss_set_rejects_bad_input_with_located_messages() {
             ..
         }
     ));
-    let e =
-        TrussSet::new("af", "actin", &x, vec![[0, 1]], law.with_prestrain(-1.0)).unwrap_err();
+    let e = TrussSet::new("af", "actin", &x, vec![[0, 1]], law.with_prestrain(-1.0)).unwrap_err();
     assert!(e.to_string().contains("prestrain must be > -1"), "{e}");
     let e = TrussSet::with_element_laws(
         "af",
