@@ -94,6 +94,20 @@ fn hex8_both_formulations() {
     }
 }
 
+/// Rotation by `angle` about `axis` (Rodrigues).
+fn rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+    let k = axis.map(|c| c / n);
+    let (s, c) = angle.sin_cos();
+    let skew = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            let delta = if i == j { 1.0 } else { 0.0 };
+            c * delta + s * skew[i][j] + (1.0 - c) * k[i] * k[j]
+        })
+    })
+}
+
 #[test]
 fn membrane_quad4_and_tri3() {
     let nodes = vec![
@@ -108,13 +122,18 @@ fn membrane_quad4_and_tri3() {
     let map = DofMap::translational(nodes.len());
     for seed in 1..4 {
         let mut rng = Lcg(seed);
-        // A large stretch and shear plus nodal noise.
+        // A large stretch and shear, an out-of-plane rotation (63° about a skew axis),
+        // plus nodal noise.
         let f = [[1.6, 0.3, 0.1], [-0.2, 0.7, 0.2], [0.1, 0.25, 1.2]];
+        let q = rotation([0.3, -1.0, 0.6], 1.1);
+        let qf: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (0..3).map(|k| q[i][k] * f[k][j]).sum::<f64>())
+        });
         let u: Vec<f64> = nodes
             .iter()
             .flat_map(|x| {
                 let y: [f64; 3] =
-                    std::array::from_fn(|i| (0..3).map(|k| f[i][k] * x[k]).sum::<f64>());
+                    std::array::from_fn(|i| (0..3).map(|k| qf[i][k] * x[k]).sum::<f64>());
                 (0..3).map(move |i| y[i] - x[i]).collect::<Vec<_>>()
             })
             .map(|v| v + 0.1 * rng.next())
