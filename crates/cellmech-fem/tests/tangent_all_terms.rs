@@ -32,28 +32,26 @@ impl Lcg {
     }
 }
 
-/// Checks every element of `term` at `u`; asserts relative errors below `tol`, symmetry
-/// below `sym_tol`, and (when given) absolute errors below `abs_tol`. Returns the number of
-/// elements checked.
-fn assert_term(
-    what: &str,
-    term: &dyn Term,
-    dof_map: &DofMap,
-    u: &[f64],
+/// Step and tolerances of one check: relative errors below `rel`, symmetry below `sym`,
+/// and (when given) absolute errors below `abs`.
+struct Fd {
     h: f64,
-    tol: f64,
-    sym_tol: f64,
-    abs_tol: Option<f64>,
-) -> usize {
-    let checks: Vec<TermCheck> = check_term(term, dof_map, u, h).expect("evaluable state");
+    rel: f64,
+    sym: f64,
+    abs: Option<f64>,
+}
+
+/// Checks every element of `term` at `u` with `fd`; returns the number of elements checked.
+fn assert_term(what: &str, term: &dyn Term, dof_map: &DofMap, u: &[f64], fd: Fd) -> usize {
+    let checks: Vec<TermCheck> = check_term(term, dof_map, u, fd.h).expect("evaluable state");
     assert!(!checks.is_empty(), "{what}: no element");
     for c in &checks {
         assert!(
-            c.passes(tol, sym_tol),
+            c.passes(fd.rel, fd.sym),
             "{what}: element {}: {c:?}",
             c.element
         );
-        if let Some(a) = abs_tol {
+        if let Some(a) = fd.abs {
             assert!(
                 c.gradient.max_abs_error < a && c.jacobian.max_abs_error < a,
                 "{what}: element {}: {c:?}",
@@ -89,7 +87,18 @@ fn hex8_both_formulations() {
         ] {
             let block = ContinuumBlock::new(&mesh.blocks[0], &mesh.nodes, law, form).unwrap();
             let what = format!("hex8 {form:?} K/G={ratio}");
-            assert_term(&what, &block, &map, &u, 1e-6, 1e-6, 1e-13, None);
+            assert_term(
+                &what,
+                &block,
+                &map,
+                &u,
+                Fd {
+                    h: 1e-6,
+                    rel: 1e-6,
+                    sym: 1e-13,
+                    abs: None,
+                },
+            );
         }
     }
 }
@@ -140,10 +149,32 @@ fn membrane_quad4_and_tri3() {
             .collect();
         let quad =
             MembraneSet::new("q", ElementKind::Quad4, vec![0, 1, 2, 3], &nodes, 3.0, 0.2).unwrap();
-        assert_term("membrane quad4", &quad, &map, &u, 1e-6, 1e-7, 1e-12, None);
+        assert_term(
+            "membrane quad4",
+            &quad,
+            &map,
+            &u,
+            Fd {
+                h: 1e-6,
+                rel: 1e-7,
+                sym: 1e-12,
+                abs: None,
+            },
+        );
         let tri =
             MembraneSet::new("t", ElementKind::Tri3, vec![4, 5, 6], &nodes, 2.0, 0.01).unwrap();
-        assert_term("membrane tri3", &tri, &map, &u, 1e-6, 1e-7, 1e-12, None);
+        assert_term(
+            "membrane tri3",
+            &tri,
+            &map,
+            &u,
+            Fd {
+                h: 1e-6,
+                rel: 1e-7,
+                sym: 1e-12,
+                abs: None,
+            },
+        );
     }
 }
 
@@ -181,7 +212,18 @@ fn truss_all_axial_laws_on_every_branch() {
         let set = TrussSet::new("f", "family", &x, pairs, law).unwrap();
         let map = DofMap::translational(x.len());
         let what = format!("truss {law:?}");
-        checked += assert_term(&what, &set, &map, &u, 1e-6 * 3.0, 1e-6, 1e-15, None);
+        checked += assert_term(
+            &what,
+            &set,
+            &map,
+            &u,
+            Fd {
+                h: 1e-6 * 3.0,
+                rel: 1e-6,
+                sym: 1e-15,
+                abs: None,
+            },
+        );
     }
     assert_eq!(checked, 4 * 6);
 }
@@ -220,7 +262,18 @@ fn beam_at_large_rotations() {
                 c => common[c - 3] + 0.3 * rng.next(),
             })
             .collect();
-        assert_term("beam", &set, &map, &u, 1e-6, 1e-6, 1e-12, None);
+        assert_term(
+            "beam",
+            &set,
+            &map,
+            &u,
+            Fd {
+                h: 1e-6,
+                rel: 1e-6,
+                sym: 1e-12,
+                abs: None,
+            },
+        );
     }
 }
 
@@ -236,7 +289,18 @@ fn spring() {
     };
     let u = [0.1, -0.2, 0.05, 0.3, 0.1, 0.4, -0.2, 0.3, 0.1];
     let map = DofMap::translational(3);
-    assert_term("spring", &set, &map, &u, 1e-6, 1e-7, 1e-15, Some(1e-6));
+    assert_term(
+        "spring",
+        &set,
+        &map,
+        &u,
+        Fd {
+            h: 1e-6,
+            rel: 1e-7,
+            sym: 1e-15,
+            abs: Some(1e-6),
+        },
+    );
 }
 
 fn cube_surface() -> (Vec<[f64; 3]>, Vec<usize>) {
@@ -264,7 +328,18 @@ fn pressure_load_and_volume_control() {
         let load = PressureLoad::new(SurfaceVolume::new("p", kind, conn, &nodes).unwrap(), 2.5);
         let map = DofMap::translational(8);
         let what = format!("pressure {kind:?}");
-        assert_term(&what, &load, &map, &u, 1e-6, 1e-8, 1e-14, Some(1e-8));
+        assert_term(
+            &what,
+            &load,
+            &map,
+            &u,
+            Fd {
+                h: 1e-6,
+                rel: 1e-8,
+                sym: 1e-14,
+                abs: Some(1e-8),
+            },
+        );
     }
     nodes.push([0.0; 3]);
     let s = SurfaceVolume::new("vc", ElementKind::Quad4, faces, &nodes).unwrap();
@@ -277,10 +352,12 @@ fn pressure_load_and_volume_control() {
         &vc,
         &map,
         &u,
-        1e-6,
-        1e-8,
-        1e-14,
-        Some(1e-8),
+        Fd {
+            h: 1e-6,
+            rel: 1e-8,
+            sym: 1e-14,
+            abs: Some(1e-8),
+        },
     );
 }
 
@@ -334,7 +411,18 @@ fn contact_frictionless_active_and_bonded() {
             );
         }
         let what = format!("frictionless {shape:?}");
-        assert_term(&what, &c, &map, &u, 1e-7, 1e-6, 1e-15, Some(1e-6));
+        assert_term(
+            &what,
+            &c,
+            &map,
+            &u,
+            Fd {
+                h: 1e-7,
+                rel: 1e-6,
+                sym: 1e-15,
+                abs: Some(1e-6),
+            },
+        );
         // Bonded: the touching nodes are tied at commit, then pulled away.
         let mut b = tool(shape, ContactKind::Bonded, &x);
         b.set_load_state(&LoadState {
@@ -349,6 +437,17 @@ fn contact_frictionless_active_and_bonded() {
             .map(|(i, v)| v - 0.1 * (i % 3) as f64)
             .collect();
         let what = format!("bonded {shape:?}");
-        assert_term(&what, &b, &map, &pulled, 1e-7, 1e-6, 1e-15, Some(1e-6));
+        assert_term(
+            &what,
+            &b,
+            &map,
+            &pulled,
+            Fd {
+                h: 1e-7,
+                rel: 1e-6,
+                sym: 1e-15,
+                abs: Some(1e-6),
+            },
+        );
     }
 }
