@@ -1,19 +1,21 @@
-//! Continuum blocks: a [`Term`] over a block of hex8 elements with one neo-Hookean law.
+//! Continuum blocks: an [`ElementSet`] (hence a [`Term`](crate::term::Term)) over a block of
+//! hex8 elements with one hyperelastic law, [`NeoHookean`] unless another [`Hyperelastic`]
+//! law is given (the kernel is monomorphised per law).
 
 use crate::dof::DofMap;
 use crate::element::hex8::{hex8_evaluate, hex8_response, Hex8Formulation, Hex8Reference};
-use crate::element::KernelError;
-use crate::material::NeoHookean;
+use crate::element::{ElementSet, KernelError};
+use crate::material::{Hyperelastic, NeoHookean};
 use crate::mesh::{ElementBlock, ElementKind};
-use crate::term::{CellField, Term, TermOutput};
+use crate::term::{CellField, TermOutput};
 
-/// A block of hexahedra sharing one material and formulation.
+/// A block of hexahedra sharing one material law `M` and formulation.
 #[derive(Debug, Clone)]
-pub struct ContinuumBlock {
+pub struct ContinuumBlock<M: Hyperelastic = NeoHookean> {
     name: String,
     connectivity: Vec<[usize; 8]>,
     references: Vec<Hex8Reference>,
-    material: NeoHookean,
+    material: M,
     formulation: Hex8Formulation,
 }
 
@@ -40,12 +42,12 @@ pub enum ContinuumBlockError {
     },
 }
 
-impl ContinuumBlock {
+impl<M: Hyperelastic> ContinuumBlock<M> {
     /// Precomputes the reference geometry of every element of `block`.
     pub fn new(
         block: &ElementBlock,
         nodes: &[[f64; 3]],
-        material: NeoHookean,
+        material: M,
         formulation: Hex8Formulation,
     ) -> Result<Self, ContinuumBlockError> {
         if block.kind != ElementKind::Hex8 {
@@ -78,7 +80,7 @@ impl ContinuumBlock {
     }
 
     /// The material law.
-    pub fn material(&self) -> NeoHookean {
+    pub fn material(&self) -> M {
         self.material
     }
 
@@ -92,28 +94,31 @@ impl ContinuumBlock {
         &self.connectivity
     }
 
-    fn gather(&self, e: usize, u: &[f64], dof_map: &DofMap) -> [f64; 24] {
-        std::array::from_fn(|k| u[dof_map.dof(self.connectivity[e][k / 3], k % 3)])
+    /// Element `e`'s nodal displacements from the global DOF values `u`.
+    fn element_displacements(&self, e: usize, u: &[f64], dof_map: &DofMap) -> [f64; 24] {
+        let mut u_e = [0.0; 24];
+        self.gather(e, u, dof_map, &mut u_e);
+        u_e
     }
 }
 
-impl Term for ContinuumBlock {
-    fn name(&self) -> &str {
+impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
+    const ELEMENT_DOFS: usize = 24;
+
+    fn set_name(&self) -> &str {
         &self.name
     }
 
-    fn num_elements(&self) -> usize {
+    fn element_count(&self) -> usize {
         self.connectivity.len()
     }
 
-    fn element_dofs(&self, e: usize, dof_map: &DofMap, dofs: &mut [usize]) -> usize {
-        for (k, dof) in dofs.iter_mut().take(24).enumerate() {
-            *dof = dof_map.dof(self.connectivity[e][k / 3], k % 3);
-        }
-        24
+    fn element_nodes(&self, e: usize) -> &[usize] {
+        &self.connectivity[e]
     }
 
-    fn evaluate(
+    #[inline]
+    fn evaluate_element(
         &self,
         e: usize,
         u_e: &[f64],
@@ -133,7 +138,7 @@ impl Term for ContinuumBlock {
         )
     }
 
-    fn outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
+    fn cell_outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
         let n = self.connectivity.len();
         let mut cauchy = Vec::with_capacity(6 * n);
         let mut von_mises = Vec::with_capacity(n);
@@ -145,7 +150,7 @@ impl Term for ContinuumBlock {
                 &self.references[e],
                 &self.material,
                 self.formulation,
-                &self.gather(e, u, dof_map),
+                &self.element_displacements(e, u, dof_map),
             )?;
             cauchy.extend_from_slice(&response.cauchy);
             von_mises.push(response.von_mises);
@@ -174,7 +179,7 @@ impl Term for ContinuumBlock {
     /// `<block>_max_principal_log_strain` and `<block>_max_von_mises_kPa`: the largest
     /// element values over the block (the element value is the volume average of the
     /// element's state; see `hex8_response`). NaN when an element cannot be evaluated.
-    fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
+    fn curve_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
         let (mut strain, mut mises) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
         let mut failed = false;
         for e in 0..self.connectivity.len() {
@@ -182,7 +187,7 @@ impl Term for ContinuumBlock {
                 &self.references[e],
                 &self.material,
                 self.formulation,
-                &self.gather(e, u, dof_map),
+                &self.element_displacements(e, u, dof_map),
             ) {
                 Ok(r) => {
                     strain = strain.max(r.max_principal_log_strain);

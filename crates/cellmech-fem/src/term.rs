@@ -1,9 +1,16 @@
 //! Terms: everything that contributes energy, residual and tangent to the global system.
 //!
 //! A [`Term`] is a family of small "elements", each coupling a short list of global DOFs.
-//! Continuum blocks, membranes, trusses, beams and rigid-tool contact are all terms, so one
-//! assembler and one finite-difference harness serve them all. The assembler gathers the
+//! Continuum blocks, membranes, trusses, beams, springs, pressure loads and rigid-tool
+//! contact are all terms, so one assembler and one finite-difference harness
+//! ([`crate::verify::tangent::check_term`]) serve them all. The assembler gathers the
 //! element's DOF values, calls [`Term::evaluate`], and scatters the result.
+//!
+//! The engine's element families do not implement `Term` by hand: they implement
+//! [`ElementSet`](crate::element::ElementSet) (name, element count, element nodes, kernel
+//! dispatch, optional hooks) and get `Term` from the one blanket implementation in
+//! [`crate::element::set`]. Other terms (e.g. constraints) may still implement `Term`
+//! directly.
 
 use crate::dof::DofMap;
 use crate::element::KernelError;

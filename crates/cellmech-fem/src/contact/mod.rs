@@ -11,14 +11,19 @@
 //!
 //! Each node couples only with itself, so contact opening or closing never changes the
 //! sparsity pattern or the symbolic factorisation.
+//!
+//! [`RigidContact`] is an [`ElementSet`] with one element per contact node; its load
+//! program, multipliers and bonds are moved by the set's hooks (`on_load_state`,
+//! `on_converged`, `on_commit`, `on_rollback`), which the `Term` adapter forwards.
 
 mod tool;
 
 pub use tool::{Gap, ToolShape};
 
 use crate::dof::DofMap;
-use crate::element::KernelError;
-use crate::term::{Augmentation, LoadState, Term};
+use crate::element::{ElementSet, KernelError};
+use crate::math::vec3::{dot, norm};
+use crate::term::{Augmentation, LoadState};
 
 /// How the tool holds the nodes it touches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -187,7 +192,7 @@ impl RigidContact {
         };
         let end = self.program_at(step);
         let d: [f64; 3] = std::array::from_fn(|i| end[i] - start[i]);
-        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let l = norm(&d);
         if l > 0.0 {
             Some(d.map(|x| x / l))
         } else {
@@ -274,27 +279,24 @@ impl RigidContact {
     }
 }
 
-fn norm(v: &[f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
+/// One element per contact node (its 3 translations); the tool's program, multipliers and
+/// bonds are the set's state, moved by the hooks.
+impl ElementSet for RigidContact {
+    const ELEMENT_DOFS: usize = 3;
 
-impl Term for RigidContact {
-    fn name(&self) -> &str {
+    fn set_name(&self) -> &str {
         &self.name
     }
 
-    fn num_elements(&self) -> usize {
+    fn element_count(&self) -> usize {
         self.nodes.len()
     }
 
-    fn element_dofs(&self, e: usize, dof_map: &DofMap, dofs: &mut [usize]) -> usize {
-        for (c, dof) in dofs.iter_mut().take(3).enumerate() {
-            *dof = dof_map.dof(self.nodes[e], c);
-        }
-        3
+    fn element_nodes(&self, e: usize) -> &[usize] {
+        std::slice::from_ref(&self.nodes[e])
     }
 
-    fn evaluate(
+    fn evaluate_element(
         &self,
         e: usize,
         u_e: &[f64],
@@ -304,7 +306,7 @@ impl Term for RigidContact {
         self.node_evaluate(e, u_e, residual, tangent)
     }
 
-    fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
+    fn curve_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
         let f = self.force_on_body(u, dof_map);
         let o = self.trial.offset;
         let mut out = vec![
@@ -318,7 +320,7 @@ impl Term for RigidContact {
         if let Some(m) = self.motion_direction(self.last_step) {
             out.push((
                 scalar_name(&self.name, ToolScalar::ForceAlongMotion),
-                f[0] * m[0] + f[1] * m[1] + f[2] * m[2],
+                dot(&f, &m),
             ));
         }
         out.push((
@@ -328,7 +330,7 @@ impl Term for RigidContact {
         out
     }
 
-    fn set_load_state(&mut self, state: &LoadState) {
+    fn on_load_state(&mut self, state: &LoadState) {
         let start = if state.step_index == 0 {
             [0.0; 3]
         } else {
@@ -345,7 +347,7 @@ impl Term for RigidContact {
         self.last_step = state.step_index;
     }
 
-    fn augment(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {
+    fn on_converged(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {
         let violation = self.max_violation(u, dof_map);
         if violation <= self.tolerance {
             return Augmentation::Settled;
@@ -372,7 +374,7 @@ impl Term for RigidContact {
         ))
     }
 
-    fn commit(&mut self, u: &[f64], dof_map: &DofMap) {
+    fn on_commit(&mut self, u: &[f64], dof_map: &DofMap) {
         if self.kind == ContactKind::Bonded {
             for e in 0..self.nodes.len() {
                 if self.trial.anchors[e].is_some() {
@@ -395,7 +397,7 @@ impl Term for RigidContact {
         self.committed = self.trial.clone();
     }
 
-    fn rollback(&mut self) {
+    fn on_rollback(&mut self) {
         self.trial = self.committed.clone();
     }
 }

@@ -4,6 +4,7 @@ use super::*;
 use crate::element::spring::SpringSet;
 use crate::linsolve::DenseSolver;
 use crate::solve::{Motion, Problem, Step};
+use crate::term::Term;
 
 /// Node 1 hangs on a spring (k = 2 nN/um) from the fixed node 0 above it, 1 um apart.
 fn spring_and_tool(kind: ContactKind, program: Vec<[f64; 3]>) -> Problem {
@@ -120,55 +121,6 @@ fn bonded_plate_transmits_tension_after_touching() {
         "tension 0.6 nN"
     );
     assert!(value(&out, "plate_force_along_motion_nN") > 0.59);
-}
-
-#[test]
-fn contact_tangent_matches_finite_differences() {
-    let shapes = [
-        ToolShape::Sphere {
-            center: [0.0, 0.0, 2.0],
-            radius: 1.0,
-        },
-        ToolShape::Paraboloid {
-            apex: [0.1, 0.0, 1.05],
-            axis: [0.0, 0.0, -1.0],
-            tip_radius: 0.3,
-        },
-    ];
-    for (i, shape) in shapes.into_iter().enumerate() {
-        let mut c = RigidContact::new(
-            "t",
-            shape,
-            ContactKind::Frictionless,
-            vec![0],
-            vec![[0.2, 0.1, 1.0]],
-            7.0,
-            1e-6,
-            vec![[0.0; 3]],
-        )
-        .unwrap();
-        c.trial.lambda[0] = 0.3 * i as f64;
-        let u = [0.01, -0.02, 0.04];
-        let (mut r, mut k) = ([0.0; 3], [0.0; 9]);
-        c.node_evaluate(0, &u, &mut r, Some(&mut k)).unwrap();
-        assert!(
-            r.iter().any(|&x| x != 0.0),
-            "the node must be in contact for this check"
-        );
-        let h = 1e-7;
-        for j in 0..3 {
-            let (mut up, mut um) = (u, u);
-            up[j] += h;
-            um[j] -= h;
-            let (mut rp, mut rm) = ([0.0; 3], [0.0; 3]);
-            let ep = c.node_evaluate(0, &up, &mut rp, None).unwrap();
-            let em = c.node_evaluate(0, &um, &mut rm, None).unwrap();
-            assert!(((ep - em) / (2.0 * h) - r[j]).abs() < 1e-6);
-            for m in 0..3 {
-                assert!(((rp[m] - rm[m]) / (2.0 * h) - k[3 * m + j]).abs() < 1e-5);
-            }
-        }
-    }
 }
 
 #[test]

@@ -7,6 +7,8 @@
 //! lateral distance), whose gradient is normal to the surface on the surface, so the
 //! frictionless contact force is normal where it acts. The constraint φ ≥ 0 is the same.
 
+use crate::math::vec3::{dot, sub};
+
 /// Shape of a rigid tool in its reference position (moved by the pilot-point displacement).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub enum ToolShape {
@@ -55,14 +57,6 @@ pub struct Gap {
     pub gradient: [f64; 3],
     /// ∇²φ (row-major 3×3).
     pub hessian: [[f64; 3]; 3],
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 impl ToolShape {

@@ -1,12 +1,23 @@
-//! Element kernels: small pure functions of element state that return energy, residual and
-//! tangent. Kernels never allocate and never see global data.
+//! Element kernels and the sets that carry them.
+//!
+//! A kernel is a small pure function of one element's reference data and DOF values that
+//! returns energy, residual and tangent; kernels never allocate and never see global data.
+//! A set (a block of hexahedra, a truss family, a membrane, a tool's contact nodes, …) owns
+//! the node lists, reference data and laws of its elements and implements [`ElementSet`],
+//! which makes it a [`Term`](crate::term::Term) (see [`set`] for the split).
+//!
+//! Large element families are folders: `kernel.rs` (the pure kernel and its reference
+//! data), `set.rs` (the [`ElementSet`] and outputs) and `tests.rs`.
 
 pub mod beam;
 pub mod hex8;
 pub mod membrane;
 pub mod pressure;
+pub mod set;
 pub mod spring;
 pub mod truss;
+
+pub use set::ElementSet;
 
 /// A kernel could not evaluate the element (the solver reacts by cutting the step).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

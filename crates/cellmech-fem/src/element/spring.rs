@@ -2,9 +2,9 @@
 //! Π = k/2 (ℓ − L)², ℓ = |x₂ − x₁|. Used as elastic supports and as the simplest
 //! geometrically nonlinear term for solver tests.
 
+use super::ElementSet;
 use super::KernelError;
-use crate::dof::DofMap;
-use crate::term::Term;
+use crate::math::vec3::norm;
 
 /// Energy, residual (6) and tangent (6×6, row-major) of a spring of stiffness `k` (nN/µm)
 /// and rest length `rest_length` between reference points `x0a`, `x0b`, displaced by `u`.
@@ -19,7 +19,7 @@ pub fn spring_evaluate(
     tangent: Option<&mut [f64]>,
 ) -> Result<f64, KernelError> {
     let d: [f64; 3] = std::array::from_fn(|i| x0b[i] + u[3 + i] - x0a[i] - u[i]);
-    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let l = norm(&d);
     if l == 0.0 {
         return Err(KernelError::InvertedElement { qp: 0, det_f: 0.0 });
     }
@@ -59,25 +59,22 @@ pub struct SpringSet {
     pub rest_length: Vec<f64>,
 }
 
-impl Term for SpringSet {
-    fn name(&self) -> &str {
+impl ElementSet for SpringSet {
+    const ELEMENT_DOFS: usize = 6;
+
+    fn set_name(&self) -> &str {
         &self.name
     }
 
-    fn num_elements(&self) -> usize {
+    fn element_count(&self) -> usize {
         self.nodes.len()
     }
 
-    fn element_dofs(&self, e: usize, dof_map: &DofMap, dofs: &mut [usize]) -> usize {
-        for (a, &node) in self.nodes[e].iter().enumerate() {
-            for c in 0..3 {
-                dofs[3 * a + c] = dof_map.dof(node, c);
-            }
-        }
-        6
+    fn element_nodes(&self, e: usize) -> &[usize] {
+        &self.nodes[e]
     }
 
-    fn evaluate(
+    fn evaluate_element(
         &self,
         e: usize,
         u_e: &[f64],
@@ -94,31 +91,5 @@ impl Term for SpringSet {
             residual,
             tangent,
         )
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn spring_tangent_matches_finite_differences_of_residual() {
-        let (a, b) = ([0.0, 0.0, 0.0], [1.0, 0.5, -0.2]);
-        let u = [0.1, -0.2, 0.05, 0.3, 0.1, 0.4];
-        let (mut r, mut t) = ([0.0; 6], [0.0; 36]);
-        spring_evaluate(2.0, 0.7, &a, &b, &u, &mut r, Some(&mut t)).unwrap();
-        let h = 1e-6;
-        for j in 0..6 {
-            let (mut up, mut um) = (u, u);
-            up[j] += h;
-            um[j] -= h;
-            let (mut rp, mut rm) = ([0.0; 6], [0.0; 6]);
-            let ep = spring_evaluate(2.0, 0.7, &a, &b, &up, &mut rp, None).unwrap();
-            let em = spring_evaluate(2.0, 0.7, &a, &b, &um, &mut rm, None).unwrap();
-            assert!(((ep - em) / (2.0 * h) - r[j]).abs() < 1e-7);
-            for i in 0..6 {
-                assert!(((rp[i] - rm[i]) / (2.0 * h) - t[i * 6 + j]).abs() < 1e-6);
-            }
-        }
     }
 }

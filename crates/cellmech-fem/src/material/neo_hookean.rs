@@ -243,6 +243,44 @@ impl NeoHookean {
     }
 }
 
+/// The hex8 kernel's view of the law (the inherent methods of the same names).
+impl super::Hyperelastic for NeoHookean {
+    #[inline]
+    fn isochoric_energy_from_b(&self, b: &Matrix3<f64>, j: f64) -> f64 {
+        NeoHookean::isochoric_energy_from_b(self, b, j)
+    }
+
+    #[inline]
+    fn isochoric_kirchhoff(&self, b: &Matrix3<f64>, j: f64) -> Matrix3<f64> {
+        NeoHookean::isochoric_kirchhoff(self, b, j)
+    }
+
+    #[inline]
+    fn isochoric_spatial_tangent(
+        &self,
+        b: &Matrix3<f64>,
+        j: f64,
+        tau_iso: &Matrix3<f64>,
+    ) -> Matrix6<f64> {
+        NeoHookean::isochoric_spatial_tangent(self, b, j, tau_iso)
+    }
+
+    #[inline]
+    fn volumetric_energy(&self, j: f64) -> f64 {
+        NeoHookean::volumetric_energy(self, j)
+    }
+
+    #[inline]
+    fn volumetric_derivative(&self, j: f64) -> f64 {
+        NeoHookean::volumetric_derivative(self, j)
+    }
+
+    #[inline]
+    fn volumetric_second_derivative(&self, j: f64) -> f64 {
+        NeoHookean::volumetric_second_derivative(self, j)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

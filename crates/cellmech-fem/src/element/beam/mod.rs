@@ -45,6 +45,7 @@ pub use set::{BeamElementResult, BeamSet, ForceStatistics};
 
 use super::KernelError;
 use crate::math::rotation::{exp_so3, log_so3, Mat3};
+use crate::math::vec3::{cross, dot, norm};
 use crate::math::{HyperDual, Scalar, HD_N};
 
 /// Number of DOFs of one beam element: `[uₐ(3), θₐ(3), u_b(3), θ_b(3)]`.
@@ -271,22 +272,6 @@ impl BeamReference {
             triad,
         })
     }
-}
-
-fn dot<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> S {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: &[f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Deformational quantities of one element in its corotated frame.

@@ -1,13 +1,13 @@
-//! A set of corotational beam elements as a [`Term`], with per-element results.
+//! A set of corotational beam elements as an [`ElementSet`], with per-element results.
 
 use super::{
     beam_deformation, beam_evaluate_with, BeamError, BeamReference, BeamSection, LocalStrain,
     BEAM_DOFS,
 };
 use crate::dof::DofMap;
-use crate::element::KernelError;
+use crate::element::{ElementSet, KernelError};
 use crate::mesh::ElementKind;
-use crate::term::{CellField, Term, TermOutput};
+use crate::term::{CellField, TermOutput};
 
 /// A set of two-node corotational beams sharing one section (e.g. all microtubules).
 ///
@@ -160,12 +160,6 @@ impl BeamSet {
         Ok(())
     }
 
-    fn gather(&self, e: usize, u: &[f64], dof_map: &DofMap) -> [f64; BEAM_DOFS] {
-        let mut dofs = [0usize; BEAM_DOFS];
-        self.element_dofs(e, dof_map, &mut dofs);
-        dofs.map(|d| u[d])
-    }
-
     /// Axial force, strain, torque and end moments of every element at DOF values `u`
     /// (zeros when the set is disabled). Requires [`BeamSet::check_dof_map`] to pass.
     pub fn element_results(
@@ -186,7 +180,9 @@ impl BeamSet {
                     });
                 }
                 let r = &self.reference[e];
-                let d = beam_deformation(r, &self.gather(e, u, dof_map))?;
+                let mut u_e = [0.0; BEAM_DOFS];
+                self.gather(e, u, dof_map, &mut u_e);
+                let d = beam_deformation(r, &u_e)?;
                 let l = r.length;
                 let (ta, tb) = (d.theta_a, d.theta_b);
                 let moment = |x: &[f64; 3], y: &[f64; 3]| {
@@ -236,27 +232,25 @@ impl BeamSet {
     }
 }
 
-impl Term for BeamSet {
-    fn name(&self) -> &str {
+/// Element DOFs `[uₐ(3), θₐ(3), u_b(3), θ_b(3)]`: components 0..6 of both nodes (which must
+/// carry 6 DOFs, see [`BeamSet::check_dof_map`]).
+impl ElementSet for BeamSet {
+    const ELEMENT_DOFS: usize = BEAM_DOFS;
+    const NODE_DOFS: usize = 6;
+
+    fn set_name(&self) -> &str {
         &self.name
     }
 
-    fn num_elements(&self) -> usize {
+    fn element_count(&self) -> usize {
         self.nodes.len()
     }
 
-    /// `[uₐ(3), θₐ(3), u_b(3), θ_b(3)]`: components 0..6 of both nodes (which must carry 6
-    /// DOFs, see [`BeamSet::check_dof_map`]).
-    fn element_dofs(&self, e: usize, dof_map: &DofMap, dofs: &mut [usize]) -> usize {
-        for (a, &node) in self.nodes[e].iter().enumerate() {
-            for c in 0..6 {
-                dofs[6 * a + c] = dof_map.dof(node, c);
-            }
-        }
-        BEAM_DOFS
+    fn element_nodes(&self, e: usize) -> &[usize] {
+        &self.nodes[e]
     }
 
-    fn evaluate(
+    fn evaluate_element(
         &self,
         e: usize,
         u_e: &[f64],
@@ -283,7 +277,7 @@ impl Term for BeamSet {
 
     /// Line2 cells with `axial_force_nN`, `axial_stress_kPa`, `axial_strain` and
     /// `bending_moment_nN_um` (the larger of the two ends' resultant moments).
-    fn outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
+    fn cell_outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
         let results = self.element_results(u, dof_map)?;
         let field = |name: &str, f: &dyn Fn(&BeamElementResult) -> f64| CellField {
             name: name.to_string(),
@@ -309,7 +303,7 @@ impl Term for BeamSet {
     /// `<family>_axial_force_{min,max,mean}_nN`, `_axial_stress_max_kPa`,
     /// `_bending_moment_max_nN_um`, `_in_tension` and `_in_compression` (counts). Nothing for
     /// a disabled set; NaN values if an element cannot be evaluated.
-    fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
+    fn curve_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
         if !self.enabled {
             return Vec::new();
         }

@@ -1,5 +1,6 @@
-//! 8-node trilinear hexahedron, total Lagrangian, 2×2×2 Gauss quadrature, carrying the
-//! decoupled neo-Hookean law ([`NeoHookean`]).
+//! 8-node trilinear hexahedron, total Lagrangian, 2×2×2 Gauss quadrature, carrying any
+//! decoupled hyperelastic law ([`Hyperelastic`], e.g. [`NeoHookean`](crate::material::NeoHookean)).
+//! The kernel is generic over the law (monomorphised, no dynamic dispatch).
 //!
 //! Node order (Abaqus C3D8 / Gmsh): nodes 0–3 are the ζ = −1 face counter-clockwise seen
 //! from +ζ, nodes 4–7 the ζ = +1 face in the same order; natural coordinates
@@ -38,7 +39,7 @@ mod tests;
 pub use response::{hex8_response, Hex8Response};
 
 use super::KernelError;
-use crate::material::NeoHookean;
+use crate::material::Hyperelastic;
 use nalgebra::Matrix3;
 
 /// Which treatment of the volumetric energy the hex8 uses.
@@ -190,8 +191,8 @@ pub(crate) fn spatial_gradients(grads: &[[f64; 3]; 8], finv: &Matrix3<f64>) -> [
 
 /// Volumetric pressure p (= U') used at a Gauss point and its local derivative p̂'.
 #[inline]
-pub(crate) fn point_pressure(
-    material: &NeoHookean,
+pub(crate) fn point_pressure<M: Hyperelastic>(
+    material: &M,
     formulation: Hex8Formulation,
     j: f64,
     theta: f64,
@@ -215,9 +216,9 @@ pub(crate) fn point_pressure(
 /// Returns the element strain energy Π (nN·µm). Errors with
 /// [`KernelError::InvertedElement`] when det F ≤ 0 at a Gauss point (the outputs are then
 /// unspecified). No heap allocation.
-pub fn hex8_evaluate(
+pub fn hex8_evaluate<M: Hyperelastic>(
     reference: &Hex8Reference,
-    material: &NeoHookean,
+    material: &M,
     formulation: Hex8Formulation,
     u: &[f64; 24],
     residual: &mut [f64; 24],

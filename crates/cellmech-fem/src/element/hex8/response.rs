@@ -3,7 +3,7 @@
 
 use super::{point_pressure, Hex8Formulation, Hex8Reference};
 use crate::element::KernelError;
-use crate::material::NeoHookean;
+use crate::material::Hyperelastic;
 use nalgebra::Matrix3;
 
 /// Element-level stress and strain measures.
@@ -25,9 +25,9 @@ pub struct Hex8Response {
 
 /// Stress and strain measures of one element at displacement `u` (µm, node-major).
 /// Errors with [`KernelError::InvertedElement`] when det F ≤ 0 at a Gauss point.
-pub fn hex8_response(
+pub fn hex8_response<M: Hyperelastic>(
     reference: &Hex8Reference,
-    material: &NeoHookean,
+    material: &M,
     formulation: Hex8Formulation,
     u: &[f64; 24],
 ) -> Result<Hex8Response, KernelError> {

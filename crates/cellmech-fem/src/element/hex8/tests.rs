@@ -2,6 +2,7 @@
 //! for homogeneous deformations, analytic uniaxial stress, volumetric-constraint count.
 
 use super::*;
+use crate::material::NeoHookean;
 use crate::verify::analytic::uniaxial_stress;
 use crate::verify::tangent::{check_gradient, check_jacobian, symmetry_error};
 use nalgebra::{DMatrix, Rotation3, Vector3};
