@@ -79,7 +79,7 @@ fn check_scenario(text: String, base_dir: &Path, extra: &str) -> Result<(), Test
     let base = base_dir.to_path_buf();
     let shown = format!("{text}\n{extra}");
     let result = guarded("scenario::parse", &shown, TIMEOUT, move || {
-        parse(&input, ORIGIN, &base).map(|s| s.mesh.num_nodes())
+        parse(&input, ORIGIN, &base).map(|s| s.model.mesh.num_nodes())
     })?;
     if std::env::var_os("FUZZ_STATS").is_some() {
         match &result {
@@ -316,7 +316,7 @@ fn huge_counts_are_rejected_before_allocating() {
             "scenario::parse",
             &text,
             Duration::from_secs(20),
-            move || parse(&input, ORIGIN, &base).map(|s| s.mesh.num_nodes()),
+            move || parse(&input, ORIGIN, &base).map(|s| s.model.mesh.num_nodes()),
         );
         let _ = std::fs::remove_dir_all(&dir);
         match result {
