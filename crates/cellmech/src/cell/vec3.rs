@@ -1,4 +1,8 @@
-//! Small 3-vector and rotation helpers used by the cell geometry (plain `[f64; 3]`).
+//! Small 3-vector and rotation helpers used by the cell geometry (plain `[f64; 3]` by
+//! value). The arithmetic is the engine's `math::vec3`; the rotations are cell-geometry
+//! helpers.
+
+use cellmech_fem::math::vec3 as v;
 
 /// A 3-vector.
 pub(crate) type V3 = [f64; 3];
@@ -7,35 +11,31 @@ pub(crate) type V3 = [f64; 3];
 pub(crate) type M3 = [[f64; 3]; 3];
 
 pub(crate) fn add(a: V3, b: V3) -> V3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+    v::add(&a, &b)
 }
 
 pub(crate) fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    v::sub(&a, &b)
 }
 
 pub(crate) fn scale(a: V3, s: f64) -> V3 {
-    [a[0] * s, a[1] * s, a[2] * s]
+    v::scale(&a, s)
 }
 
 pub(crate) fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    v::dot(&a, &b)
 }
 
 pub(crate) fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    v::cross(&a, &b)
 }
 
 pub(crate) fn norm(a: V3) -> f64 {
-    dot(a, a).sqrt()
+    v::norm(&a)
 }
 
 pub(crate) fn distance(a: V3, b: V3) -> f64 {
-    norm(sub(a, b))
+    v::distance(&a, &b)
 }
 
 /// `a / |a|`; the caller guarantees `a ≠ 0`.
