@@ -620,9 +620,11 @@ struct BucklingResult {
     p_observed: f64,
     mode_observed: usize,
     mode_theory: usize,
+    discrete: Vec<(usize, f64)>,
     euler: f64,
     nnz_plain: usize,
     nnz_embedded: usize,
+    nnz_l: [usize; 2],
     factor_plain_s: f64,
     factor_embedded_s: f64,
 }
@@ -691,6 +693,18 @@ fn buckling(nx: usize, ny: usize, h: f64) -> BucklingResult {
     let q_star = (k / ei).powf(0.25);
     let p_theory = 2.0 * (k * ei).sqrt();
     let wavelength_theory = 2.0 * PI / q_star;
+    // The same theory on the admissible modes cos(nπx/L): P(n) = EI q² + k(q)/q².
+    let discrete: Vec<(usize, f64)> = (mode.saturating_sub(1).max(1)..=mode + 1)
+        .map(|n| {
+            let q = n as f64 * PI / b.length;
+            let k_n = if n == mode {
+                k
+            } else {
+                foundation_stiffness(&b, n)
+            };
+            (n, ei * q * q + k_n / (q * q))
+        })
+        .collect();
     // The model.
     let pairs: Vec<[usize; 2]> = b.beam_nodes.windows(2).map(|w| [w[0], w[1]]).collect();
     let beams = BeamSet::from_coordinates(
@@ -754,11 +768,12 @@ fn buckling(nx: usize, ny: usize, h: f64) -> BucklingResult {
         for _ in 0..3 {
             linear.factorize(&values).unwrap();
         }
-        start.elapsed().as_secs_f64() / 3.0
+        let seconds = start.elapsed().as_secs_f64() / 3.0;
+        (seconds, linear.analysis_info().unwrap().nnz_l)
     };
     let mut cond = Condensation::new(c.clone(), problem.assembler().pattern()).unwrap();
-    let factor_plain_s = time_factor(&plain, None);
-    let factor_embedded_s = time_factor(&problem, Some(&cond));
+    let (factor_plain_s, l_plain) = time_factor(&plain, None);
+    let (factor_embedded_s, l_embedded) = time_factor(&problem, Some(&cond));
     let mut linear = FaerSparseSolver::new(1);
     linear.analyze(problem.tangent_pattern()).unwrap();
     // Hold the twist (and the end slopes: x = 0 and x = L are symmetry planes).
@@ -819,9 +834,11 @@ fn buckling(nx: usize, ny: usize, h: f64) -> BucklingResult {
         p_observed,
         mode_observed: best.0,
         mode_theory: mode,
+        discrete,
         euler: 4.0 * PI * PI * ei / (b.length * b.length),
         nnz_plain,
         nnz_embedded,
+        nnz_l: [l_plain, l_embedded],
         factor_plain_s,
         factor_embedded_s,
     }
@@ -844,15 +861,30 @@ fn check_buckling(r: &BucklingResult, length: f64) {
         r.mode_theory,
         r.wavelength_theory,
     );
+    let (n_min, p_min) =
+        r.discrete
+            .iter()
+            .copied()
+            .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+    println!(
+        "admissible modes n: P(n) = EI q² + k(q)/q² = {:?}; min at n = {n_min}: {p_min:.5} nN \
+         (observed/min {:.4})",
+        r.discrete,
+        r.p_observed / p_min
+    );
     println!(
         "fill: tangent nonzeros (lower) {} free filament -> {} embedded ({:+.1} %); \
-         numeric LLT {:.4} s -> {:.4} s",
+         L nonzeros {} -> {}; numeric LLT {:.4} s -> {:.4} s",
         r.nnz_plain,
         r.nnz_embedded,
         100.0 * (r.nnz_embedded as f64 / r.nnz_plain as f64 - 1.0),
+        r.nnz_l[0],
+        r.nnz_l[1],
         r.factor_plain_s,
         r.factor_embedded_s
     );
+    assert_eq!(r.mode_observed, n_min, "the mode of least P(n)");
+    assert!((r.p_observed / p_min - 1.0).abs() < 0.05);
     assert!(
         (r.p_observed / r.p_theory - 1.0).abs() < 0.05,
         "P_cr {} vs 2√(kEI) {}",
@@ -884,4 +916,92 @@ fn b_embedded_microtubule_buckles_on_the_cytoplasm_foundation_coarse() {
 fn b_embedded_microtubule_buckles_on_the_cytoplasm_foundation_fine() {
     let r = buckling(50, 15, 0.15);
     check_buckling(&r, 50.0 * 0.15);
+}
+
+// ---------------------------------------------------------------------------------------
+// Cost: fill of a host with many oblique embedded fibres.
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn cost_of_embedding_many_oblique_fibres() {
+    // 16 × 16 × 16 hosts of 0.5 µm; 60 straight fibres of 20 beam elements at random
+    // orientations, free (plain) or embedded.
+    let mesh = box_mesh([0.0; 3], [8.0; 3], [16, 16, 16], "cytoplasm").unwrap();
+    let mut coords = mesh.nodes.clone();
+    let mut rng = Lcg(31);
+    let mut pairs = Vec::new();
+    let mut fibre_nodes = Vec::new();
+    for _ in 0..60 {
+        let a: [f64; 3] = std::array::from_fn(|_| 0.5 + 7.0 * rng.next());
+        let b: [f64; 3] = std::array::from_fn(|_| 0.5 + 7.0 * rng.next());
+        let points: Vec<[f64; 3]> = (0..=20)
+            .map(|i| std::array::from_fn(|k| a[k] + (b[k] - a[k]) * i as f64 / 20.0))
+            .collect();
+        let nodes = add_nodes(&mut coords, &points);
+        pairs.extend(nodes.windows(2).map(|w| [w[0], w[1]]));
+        fibre_nodes.extend(nodes);
+    }
+    let beams = BeamSet::from_coordinates("mt", "microtubule", &coords, &pairs, None, mt_section())
+        .unwrap();
+    let mut counts = vec![3; coords.len()];
+    beams.mark_rotational_nodes(&mut counts).unwrap();
+    let dof_map = DofMap::with_counts(&counts);
+    let locator = HostLocator::new(&mesh, &["cytoplasm"]).unwrap();
+    let mut c = LinearConstraints::new(dof_map.num_dofs());
+    let start = Instant::now();
+    let report =
+        embed_translations(&mut c, &locator, &dof_map, &coords, &fibre_nodes, 0.0).unwrap();
+    let locate_s = start.elapsed().as_secs_f64();
+    report.require_all_hosted().unwrap();
+    let terms = || -> Vec<Box<dyn Term>> {
+        vec![Box::new(host(&mesh, material())), Box::new(beams.clone())]
+    };
+    let start = Instant::now();
+    let plain = Problem::new(dof_map.clone(), terms(), solver()).unwrap();
+    let build_plain_s = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let embedded = Problem::with_constraints(dof_map.clone(), terms(), c, solver()).unwrap();
+    let build_embedded_s = start.elapsed().as_secs_f64();
+    let mut figures = Vec::new();
+    for p in [&plain, &embedded] {
+        let pattern = p.tangent_pattern().clone();
+        let mut linear = FaerSparseSolver::new(1);
+        linear.analyze(&pattern).unwrap();
+        // An SPD matrix with this pattern (the factorisation cost depends on it only).
+        let mut values = vec![-1e-3; pattern.nnz()];
+        for col in 0..pattern.n {
+            values[pattern.col_ptr[col]] = 100.0;
+        }
+        linear.factorize(&values).unwrap();
+        let start = Instant::now();
+        for _ in 0..3 {
+            linear.factorize(&values).unwrap();
+        }
+        let seconds = start.elapsed().as_secs_f64() / 3.0;
+        figures.push((
+            pattern.nnz(),
+            linear.analysis_info().unwrap().nnz_l,
+            seconds,
+        ));
+    }
+    println!(
+        "{} DOFs, {} embedded nodes ({} constrained DOFs; located in {locate_s:.3} s); \
+         tangent nonzeros {} -> {}; L nonzeros {} -> {}; numeric LLT {:.3} s -> {:.3} s; \
+         problem set-up {build_plain_s:.2} s -> {build_embedded_s:.2} s",
+        dof_map.num_dofs(),
+        report.embedded.len(),
+        embedded.num_constrained_dofs(),
+        figures[0].0,
+        figures[1].0,
+        figures[0].1,
+        figures[1].1,
+        figures[0].2,
+        figures[1].2
+    );
+    assert_eq!(embedded.num_constrained_dofs(), 3 * 60 * 21);
+    assert_eq!(plain.num_constrained_dofs(), 0);
+    assert!(
+        figures[1].0 > figures[0].0,
+        "master-master couplings add entries"
+    );
 }
