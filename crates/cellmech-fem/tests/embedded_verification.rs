@@ -912,7 +912,7 @@ fn b_embedded_microtubule_buckles_on_the_cytoplasm_foundation_coarse() {
 }
 
 #[test]
-#[ignore = "fine mesh (≈ 40 k DOFs): run with --ignored; result in docs/embedded-elements.md"]
+#[ignore = "fine mesh (≈ 39 k DOFs): run with --ignored; result in docs/embedded-elements.md"]
 fn b_embedded_microtubule_buckles_on_the_cytoplasm_foundation_fine() {
     let r = buckling(50, 15, 0.15);
     check_buckling(&r, 50.0 * 0.15);
