@@ -523,7 +523,8 @@ struct Buckling {
     coords: Vec<[f64; 3]>,
     beam_nodes: Vec<usize>,
     length: f64,
-    h: f64,
+    /// Beam element length (µm).
+    spacing: f64,
 }
 
 const G_HOST: f64 = 0.17;
@@ -533,13 +534,20 @@ fn mt_section() -> BeamSection {
     BeamSection::hollow_circular(1.2e6, 0.3, 0.025, 0.017).unwrap()
 }
 
-fn buckling_geometry(nx: usize, ny: usize, h: f64) -> Buckling {
+fn buckling_geometry(nx: usize, ny: usize, h: f64, per_host: usize) -> Buckling {
     assert!(ny % 2 == 1);
     let (length, width) = (nx as f64 * h, ny as f64 * h);
     let mesh = box_mesh([0.0; 3], [length, width, width], [nx, ny, ny], "cytoplasm").unwrap();
     let mut coords = mesh.nodes.clone();
-    let line: Vec<[f64; 3]> = (0..=nx)
-        .map(|i| [length * i as f64 / nx as f64, width / 2.0, width / 2.0])
+    let segments = nx * per_host;
+    let line: Vec<[f64; 3]> = (0..=segments)
+        .map(|i| {
+            [
+                length * i as f64 / segments as f64,
+                width / 2.0,
+                width / 2.0,
+            ]
+        })
         .collect();
     let beam_nodes = add_nodes(&mut coords, &line);
     Buckling {
@@ -547,7 +555,7 @@ fn buckling_geometry(nx: usize, ny: usize, h: f64) -> Buckling {
         coords,
         beam_nodes,
         length,
-        h,
+        spacing: h / per_host as f64,
     }
 }
 
@@ -590,7 +598,11 @@ fn foundation_stiffness(b: &Buckling, mode: usize) -> f64 {
     let last = b.beam_nodes.len() - 1;
     for (i, &n) in b.beam_nodes.iter().enumerate() {
         let x = b.coords[n][0];
-        let tributary = if i == 0 || i == last { b.h / 2.0 } else { b.h };
+        let tributary = if i == 0 || i == last {
+            b.spacing / 2.0
+        } else {
+            b.spacing
+        };
         for (dof, f) in c.distribute(3 * n + 1, p0 * (q * x).cos() * tributary) {
             *loads.entry(dof).or_insert(0.0) += f;
         }
@@ -673,8 +685,8 @@ fn inertia(
     info.negative_pivots.expect("LDLT reports its inertia")
 }
 
-fn buckling(nx: usize, ny: usize, h: f64) -> BucklingResult {
-    let b = buckling_geometry(nx, ny, h);
+fn buckling(nx: usize, ny: usize, h: f64, per_host: usize) -> BucklingResult {
+    let b = buckling_geometry(nx, ny, h, per_host);
     let section = mt_section();
     let (ei, _) = section.bending_stiffness();
     let ea = section.axial_stiffness();
@@ -795,7 +807,12 @@ fn buckling(nx: usize, ny: usize, h: f64) -> BucklingResult {
     let strain_theory = p_theory / ea;
     let (mut lo, mut hi) = (0.5 * strain_theory, 1.5 * strain_theory);
     assert_eq!(probe(&mut problem, lo, None), 0);
-    assert!(probe(&mut problem, hi, None) > 0, "buckled at 1.5 × theory");
+    let mut widenings = 0;
+    while probe(&mut problem, hi, None) == 0 {
+        widenings += 1;
+        assert!(widenings < 8, "no buckling below {hi:e} strain");
+        (lo, hi) = (hi, 1.5 * hi);
+    }
     while hi - lo > 1e-3 * lo {
         let mid = 0.5 * (lo + hi);
         if probe(&mut problem, mid, None) > 0 {
@@ -907,14 +924,14 @@ fn check_buckling(r: &BucklingResult, length: f64) {
 #[test]
 fn b_embedded_microtubule_buckles_on_the_cytoplasm_foundation_coarse() {
     // h = 0.3 µm (≈ 8 elements per buckling wave), 25 × 7 × 7 hosts.
-    let r = buckling(25, 7, 0.3);
+    let r = buckling(25, 7, 0.3, 1);
     check_buckling(&r, 25.0 * 0.3);
 }
 
 #[test]
 #[ignore = "fine mesh (≈ 39 k DOFs): run with --ignored; result in docs/embedded-elements.md"]
 fn b_embedded_microtubule_buckles_on_the_cytoplasm_foundation_fine() {
-    let r = buckling(50, 15, 0.15);
+    let r = buckling(50, 15, 0.15, 1);
     check_buckling(&r, 50.0 * 0.15);
 }
 
@@ -1004,4 +1021,22 @@ fn cost_of_embedding_many_oblique_fibres() {
         figures[1].0 > figures[0].0,
         "master-master couplings add entries"
     );
+}
+
+#[test]
+#[ignore = "measurement of a documented limit (docs/embedded-elements.md): run with --ignored"]
+fn b_beam_elements_shorter_than_their_hosts_stiffen_the_embedded_beam() {
+    // Coarse geometry of the buckling test with 1, 2 and 4 beam elements per host element.
+    let ratios: Vec<f64> = [1, 2, 4]
+        .iter()
+        .map(|&m| {
+            let r = buckling(25, 7, 0.3, m);
+            println!(
+                "{m} beam element(s) per host: P_observed / 2√(kEI) = {:.4}",
+                r.p_observed / r.p_theory
+            );
+            r.p_observed / r.p_theory
+        })
+        .collect();
+    assert!(ratios[2] > ratios[1] && ratios[1] > ratios[0]);
 }

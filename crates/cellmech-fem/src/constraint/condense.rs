@@ -72,6 +72,9 @@ impl Condensation {
         // Pass 1: the reduced pattern's columns.
         let mut cols: Vec<Vec<usize>> = (0..n).map(|c| vec![c]).collect();
         let for_targets = |i: usize, j: usize, f: &mut dyn FnMut(usize, usize, f64)| {
+            if !constraints.is_slave(i) && !constraints.is_slave(j) {
+                return f(i, j, 1.0);
+            }
             let (pi, wi) = expansion(i, &[i]);
             let (pj, wj) = expansion(j, &[j]);
             if i == j {
