@@ -1060,3 +1060,79 @@ fn b_beam_elements_shorter_than_their_hosts_stiffen_the_embedded_beam() {
         .collect();
     assert!(ratios[2] > ratios[1] && ratios[1] > ratios[0]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Bad input: clear errors, no panics.
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn e_bad_embedding_input_gives_clear_errors() {
+    let mesh = box_mesh([0.0; 3], [1.0; 3], [2, 2, 2], "cytoplasm").unwrap();
+    let mut coords = mesh.nodes.clone();
+    let extra = add_nodes(
+        &mut coords,
+        &[[0.5, 0.3, 0.2], [1.5, 0.5, 0.5], [0.7, 0.7, 0.7]],
+    );
+    let dof_map = DofMap::translational(coords.len());
+    let locator = HostLocator::new(&mesh, &["cytoplasm"]).unwrap();
+    let mut c = LinearConstraints::new(dof_map.num_dofs());
+    let report = embed_translations(&mut c, &locator, &dof_map, &coords, &extra, 0.0).unwrap();
+    assert_eq!(report.embedded.len(), 2);
+    assert_eq!(report.unhosted.len(), 1);
+    let e = report.require_all_hosted().unwrap_err().to_string();
+    assert!(
+        e.contains("node 28") && e.contains("point (1.500000, 0.500000, 0.500000)"),
+        "{e}"
+    );
+    // Embedding a node twice, or an unknown node.
+    let e = embed_translations(&mut c, &locator, &dof_map, &coords, &extra[..1], 0.0)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("embedding node 27") && e.contains("already constrained"),
+        "{e}"
+    );
+    let e = embed_translations(&mut c, &locator, &dof_map, &coords, &[99], 0.0)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("node 99 does not exist"), "{e}");
+    // Slaves can be neither prescribed nor loaded; a size mismatch is refused.
+    let terms = || -> Vec<Box<dyn Term>> {
+        vec![Box::new(host(
+            &mesh,
+            NeoHookean::from_shear_poisson(1.0, 0.3).unwrap(),
+        ))]
+    };
+    let wrong = LinearConstraints::new(5);
+    let e = Problem::with_constraints(dof_map.clone(), terms(), wrong, solver())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("built for 5 DOFs"), "{e}");
+    let mut problem = Problem::with_constraints(dof_map, terms(), c, solver()).unwrap();
+    assert_eq!(problem.num_constrained_dofs(), 6);
+    assert!(problem.tangent_nonzeros() > problem.element_nonzeros() - 1);
+    let mut step = Step::new("bad");
+    step.prescribed.push((3 * 27 + 1, Motion::By(0.1)));
+    let e = problem
+        .run_step(&step, &mut NullObserver)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("node 27, component 1") && e.contains("cannot be prescribed"),
+        "{e}"
+    );
+    let mut step = Step::new("bad");
+    step.loads.push(NodalLoad {
+        dof: 3 * 29,
+        value: 1.0,
+    });
+    let e = problem
+        .run_step(&step, &mut NullObserver)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("cannot be loaded") && e.contains("distribute"),
+        "{e}"
+    );
+}
