@@ -364,10 +364,10 @@ fn dense(p: &cellmech_fem::linsolve::SparsityPattern, values: &[f64]) -> Vec<f64
     let n = p.n;
     let mut a = vec![0.0; n * n];
     for c in 0..n {
-        for k in p.col_ptr[c]..p.col_ptr[c + 1] {
-            let r = p.row_idx[k];
-            a[r * n + c] = values[k];
-            a[c * n + r] = values[k];
+        let range = p.col_ptr[c]..p.col_ptr[c + 1];
+        for (&r, &v) in p.row_idx[range.clone()].iter().zip(&values[range]) {
+            a[r * n + c] = v;
+            a[c * n + r] = v;
         }
     }
     a

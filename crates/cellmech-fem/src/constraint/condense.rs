@@ -106,7 +106,7 @@ impl Condensation {
             col.sort_unstable();
             col.dedup();
             row_idx.extend_from_slice(col);
-            reduced_col.extend(std::iter::repeat(c as u32).take(col.len()));
+            reduced_col.extend(std::iter::repeat_n(c as u32, col.len()));
             col_ptr.push(row_idx.len());
         }
         drop(cols);
