@@ -7,6 +7,7 @@
 //! Internal units: µm, nN, kPa (= nN/µm²), s. The engine knows nothing about cells.
 
 pub mod assembly;
+pub mod constraint;
 pub mod contact;
 pub mod continuum;
 pub mod dof;

@@ -4,6 +4,7 @@
 //! about materials: a scenario maps element-set names to materials.
 
 pub mod generate;
+pub mod locate;
 pub mod surface;
 
 use std::collections::BTreeMap;

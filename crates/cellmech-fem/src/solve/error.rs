@@ -87,4 +87,7 @@ pub enum SolveError {
     /// The linear solver could not analyse the pattern.
     #[error(transparent)]
     LinearSolver(#[from] LinSolveError),
+    /// The linear constraints do not fit the model.
+    #[error(transparent)]
+    Constraint(#[from] crate::constraint::ConstraintError),
 }

@@ -6,6 +6,7 @@
 //! [`Step`] from pseudo-time 0 to 1 in increments, reporting every iteration and every
 //! converged increment to an [`Observer`]. The engine never prints.
 
+mod constrained;
 mod control;
 mod error;
 mod newton;

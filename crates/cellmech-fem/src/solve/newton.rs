@@ -217,6 +217,7 @@ impl Problem {
         let factored = Instant::now();
         self.work.delta.copy_from_slice(&self.work.rhs);
         self.solver.solve_in_place(&mut self.work.delta)?;
+        self.expand_correction();
         self.timings.factorization_s += (factored - start).as_secs_f64();
         self.timings.solve_s += factored.elapsed().as_secs_f64();
         self.timings.factorizations += 1;
@@ -233,17 +234,18 @@ impl Problem {
             self.work.du_prescribed.as_slice(),
             self.work.predictor.as_mut_slice(),
         ));
-        self.energy = self.assembler.assemble(
-            &self.terms,
-            &self.u,
-            &self.prescribed,
-            AssemblyOutput {
-                residual: &mut self.residual,
-                magnitude: Some(&mut self.work.magnitude),
-                tangent: Some(&mut self.work.values),
-                predictor,
-            },
-        )?;
+        let out = AssemblyOutput {
+            residual: &mut self.residual,
+            magnitude: Some(&mut self.work.magnitude),
+            tangent: Some(&mut self.work.values),
+            predictor,
+        };
+        self.energy = match &mut self.condensation {
+            Some(c) => c.assemble(&self.assembler, &self.terms, &self.u, &self.prescribed, out),
+            None => self
+                .assembler
+                .assemble(&self.terms, &self.u, &self.prescribed, out),
+        }?;
         self.timings.assembly_s += start.elapsed().as_secs_f64();
         self.timings.assemblies += 1;
         Ok(())
@@ -255,17 +257,24 @@ impl Problem {
         for d in 0..self.u.len() {
             self.work.trial[d] = self.u[d] + s * self.work.delta[d];
         }
-        self.assembler.assemble(
-            &self.terms,
-            &self.work.trial,
-            &self.prescribed,
-            AssemblyOutput {
-                residual: &mut self.work.residual_trial,
-                magnitude: None,
-                tangent: None,
-                predictor: None,
-            },
-        )?;
+        let out = AssemblyOutput {
+            residual: &mut self.work.residual_trial,
+            magnitude: None,
+            tangent: None,
+            predictor: None,
+        };
+        match &mut self.condensation {
+            Some(c) => c.assemble(
+                &self.assembler,
+                &self.terms,
+                &self.work.trial,
+                &self.prescribed,
+                out,
+            ),
+            None => self
+                .assembler
+                .assemble(&self.terms, &self.work.trial, &self.prescribed, out),
+        }?;
         self.timings.residual_only_s += start.elapsed().as_secs_f64();
         Ok(self.projection(&self.work.residual_trial))
     }

@@ -5,6 +5,8 @@ use super::error::SolveError;
 use super::observer::{IncrementReport, Observer};
 use super::step::{Monitor, Motion, Step};
 use crate::assembly::Assembler;
+use crate::constraint::condense::Condensation;
+use crate::constraint::LinearConstraints;
 use crate::dof::DofMap;
 use crate::linsolve::{FactorInfo, LinearSolver};
 use crate::term::{LoadState, Term};
@@ -61,6 +63,8 @@ pub struct Problem {
     /// Size of the model (µm), when known: a Newton correction below
     /// [`super::newton::COORDINATE_ROUND_OFF`] times it is round-off of the coordinates.
     pub(super) length_scale: f64,
+    /// Linear constraints eliminated exactly (embedded nodes), if any.
+    pub(super) condensation: Option<Condensation>,
 }
 
 impl Problem {
@@ -80,13 +84,47 @@ impl Problem {
     pub fn new(
         dof_map: DofMap,
         terms: Vec<Box<dyn Term>>,
+        solver: Box<dyn LinearSolver>,
+    ) -> Result<Self, SolveError> {
+        Self::build(dof_map, terms, None, solver)
+    }
+
+    /// Like [`Problem::new`], with linear constraints (slave = Σ w·master, e.g. embedded
+    /// nodes) eliminated exactly by condensation: see [`crate::constraint`]. Slave DOFs
+    /// can be neither prescribed nor loaded (use [`LinearConstraints::distribute`]); their
+    /// values follow the masters after every solve, and reactions appear on the masters.
+    pub fn with_constraints(
+        dof_map: DofMap,
+        terms: Vec<Box<dyn Term>>,
+        constraints: LinearConstraints,
+        solver: Box<dyn LinearSolver>,
+    ) -> Result<Self, SolveError> {
+        Self::build(dof_map, terms, Some(constraints), solver)
+    }
+
+    fn build(
+        dof_map: DofMap,
+        terms: Vec<Box<dyn Term>>,
+        constraints: Option<LinearConstraints>,
         mut solver: Box<dyn LinearSolver>,
     ) -> Result<Self, SolveError> {
         let assembler = Assembler::new(&dof_map, &terms);
-        solver.analyze(assembler.pattern())?;
+        let mut untouched = assembler.untouched_dofs();
+        let condensation = match constraints {
+            Some(c) if !c.is_empty() || c.num_dofs() != dof_map.num_dofs() => {
+                let condensation = Condensation::new(c, assembler.pattern())?;
+                super::constrained::reduce_untouched(condensation.constraints(), &mut untouched);
+                Some(condensation)
+            }
+            _ => None,
+        };
+        let pattern = match &condensation {
+            Some(c) => c.reduced_pattern(),
+            None => assembler.pattern(),
+        };
+        solver.analyze(pattern)?;
         let n = dof_map.num_dofs();
-        let nnz = assembler.pattern().nnz();
-        let untouched = assembler.untouched_dofs();
+        let nnz = pattern.nnz();
         Ok(Problem {
             dof_map,
             terms,
@@ -114,6 +152,7 @@ impl Problem {
             total_time: 0.0,
             steps_done: 0,
             length_scale: 0.0,
+            condensation,
         })
     }
 
@@ -388,6 +427,7 @@ impl Problem {
                 load.dof
             )));
         }
+        self.check_step_constraints(step).map_err(invalid)?;
         Ok(())
     }
 }
