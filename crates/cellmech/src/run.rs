@@ -198,7 +198,7 @@ pub fn run(
             nodes: scenario.model.mesh.num_nodes(),
             elements: scenario.model.mesh.num_elements(),
             dofs: model.problem.dof_map().num_dofs(),
-            tangent_nonzeros: model.problem.assembler().pattern().nnz(),
+            tangent_nonzeros: model.problem.tangent_nonzeros(),
         },
         steps: writer.stats.clone(),
         wall_time_s: start.elapsed().as_secs_f64(),
