@@ -61,8 +61,12 @@ pub struct SystemSize {
     pub elements: usize,
     /// Degrees of freedom.
     pub dofs: usize,
-    /// Stored nonzeros of the tangent (lower triangle).
+    /// Stored nonzeros of the tangent (lower triangle; after eliminating embedded DOFs).
     pub tangent_nonzeros: usize,
+    /// DOFs eliminated by embedding (they follow their hosts).
+    pub constrained_dofs: usize,
+    /// What each embedding did.
+    pub embedding: Vec<crate::model::EmbedSummary>,
 }
 
 /// Why a run failed.
@@ -199,6 +203,8 @@ pub fn run(
             elements: scenario.model.mesh.num_elements(),
             dofs: model.problem.dof_map().num_dofs(),
             tangent_nonzeros: model.problem.tangent_nonzeros(),
+            constrained_dofs: model.problem.num_constrained_dofs(),
+            embedding: model.embedding.clone(),
         },
         steps: writer.stats.clone(),
         wall_time_s: start.elapsed().as_secs_f64(),

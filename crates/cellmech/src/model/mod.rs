@@ -9,10 +9,13 @@ pub mod structures;
 pub mod tools;
 
 pub use spec::{
-    CurveSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
+    CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
 };
 
+use cellmech_fem::constraint::embed::embed_translations;
+use cellmech_fem::constraint::LinearConstraints;
 use cellmech_fem::continuum::ContinuumBlock;
+use cellmech_fem::mesh::locate::HostLocator;
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::linsolve::FaerSparseSolver;
 use cellmech_fem::solve::{Motion, NodalLoad, Problem, SolveError, Step};
@@ -91,6 +94,21 @@ pub struct BuiltModel {
     /// DOFs of a cell model's minimal supports: their largest reaction is reported as
     /// `support_reaction_max_nN` (it must stay ~0: the supports only remove rigid modes).
     pub support_dofs: Vec<usize>,
+    /// What each embedding did.
+    pub embedding: Vec<EmbedSummary>,
+}
+
+/// The outcome of one [`EmbedSpec`], for `summary.json`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct EmbedSummary {
+    /// The spec's name.
+    pub name: String,
+    /// Nodes whose translations now follow a host.
+    pub embedded_nodes: usize,
+    /// Nodes that are host nodes themselves (already part of the continuum).
+    pub shared_nodes: usize,
+    /// Largest overshoot `max|ξ| − 1` of an embedded node outside its host (0: all inside).
+    pub max_overshoot: f64,
 }
 
 /// Why a model could not be built.
@@ -108,6 +126,14 @@ pub enum BuildError {
     /// The engine rejected the problem.
     #[error(transparent)]
     Solve(#[from] SolveError),
+    /// Embedded nodes could not be placed in their hosts.
+    #[error("embedding '{name}': {message}")]
+    Embed {
+        /// The spec's name.
+        name: String,
+        /// What went wrong.
+        message: String,
+    },
 }
 
 /// Builds the engine problem for `model`.
@@ -173,7 +199,12 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         })
         .map(|(n, c)| dof_map.dof(n, c))
         .collect();
-    let mut problem = Problem::new(dof_map, terms, Box::new(FaerSparseSolver::default()))?;
+    let (constraints, embedding) = embed(model, &dof_map)?;
+    let solver = Box::new(FaerSparseSolver::default());
+    let mut problem = match constraints {
+        Some(c) => Problem::with_constraints(dof_map, terms, c, solver)?,
+        None => Problem::new(dof_map, terms, solver)?,
+    };
     let (lo, hi) = mesh.bounding_box();
     problem.set_length_scale((0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt());
     Ok(BuiltModel {
@@ -182,7 +213,52 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         curves,
         probes,
         support_dofs,
+        embedding,
     })
+}
+
+/// The linear constraints of the model's embeddings (`None` without any).
+fn embed(
+    model: &ModelSpec,
+    dof_map: &DofMap,
+) -> Result<(Option<LinearConstraints>, Vec<EmbedSummary>), BuildError> {
+    if model.embedded.is_empty() {
+        return Ok((None, Vec::new()));
+    }
+    let mesh = &model.mesh;
+    let used = structures::enabled_structure_nodes(&model.structures, mesh.num_nodes());
+    let mut constraints = LinearConstraints::new(dof_map.num_dofs());
+    let mut summaries = Vec::new();
+    for spec in &model.embedded {
+        let fail = |message: String| BuildError::Embed {
+            name: spec.name.clone(),
+            message,
+        };
+        let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
+        let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
+        let nodes: Vec<usize> = mesh
+            .node_sets
+            .get(&spec.node_set)
+            .map(|set| set.iter().copied().filter(|&n| used[n]).collect())
+            .unwrap_or_default();
+        let report = embed_translations(
+            &mut constraints,
+            &locator,
+            dof_map,
+            &mesh.nodes,
+            &nodes,
+            spec.tolerance,
+        )
+        .map_err(|e| fail(e.to_string()))?;
+        report.require_all_hosted().map_err(|e| fail(e.to_string()))?;
+        summaries.push(EmbedSummary {
+            name: spec.name.clone(),
+            embedded_nodes: report.embedded.len(),
+            shared_nodes: report.shared.len(),
+            max_overshoot: report.max_overshoot,
+        });
+    }
+    Ok((Some(constraints), summaries))
 }
 
 fn engine_step<'a>(spec: &StepSpec, set: &impl Fn(&str) -> &'a [usize], dofs: &DofMap) -> Step {

@@ -30,6 +30,25 @@ pub struct ModelSpec {
     pub supports: Vec<(String, [bool; 3])>,
     /// Shape probes (e.g. a cell's nucleus): extent along and across a test axis.
     pub shape_probes: Vec<ShapeProbeSpec>,
+    /// Nodes whose translations follow the continuum they lie in (embedded elements).
+    pub embedded: Vec<EmbedSpec>,
+}
+
+/// Nodes embedded in host continuum blocks: each node's translations follow the host
+/// element's interpolation at the node's reference position (exact linear constraints,
+/// see `docs/embedded-elements.md`); rotations of beam nodes stay free. Nodes that no
+/// enabled structure uses (a switched-off family) are skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmbedSpec {
+    /// Name for reports (e.g. `microtubule_interior`).
+    pub name: String,
+    /// Node set of the embedded nodes.
+    pub node_set: String,
+    /// Element sets (hex8 blocks) that host them.
+    pub host_blocks: Vec<String>,
+    /// Largest accepted overshoot of a node outside its host, in the host's natural
+    /// coordinates (`max|ξ| − 1`): points just outside a faceted curved boundary.
+    pub tolerance: f64,
 }
 
 /// A node set whose shape along a test axis is reported per increment.

@@ -111,6 +111,26 @@ pub fn dofs_per_node(num_nodes: usize, spec: &StructuresSpec) -> Vec<usize> {
     counts
 }
 
+/// Which nodes an enabled filament or membrane uses.
+pub fn enabled_structure_nodes(spec: &StructuresSpec, num_nodes: usize) -> Vec<bool> {
+    let mut used = vec![false; num_nodes];
+    for f in spec.filaments.iter().filter(|f| f.enabled) {
+        for n in f.pairs.iter().flatten() {
+            if let Some(u) = used.get_mut(*n) {
+                *u = true;
+            }
+        }
+    }
+    for m in spec.membranes.iter().filter(|m| m.enabled) {
+        for n in m.faces.iter().flatten() {
+            if let Some(u) = used.get_mut(*n) {
+                *u = true;
+            }
+        }
+    }
+    used
+}
+
 /// The family names of the enabled groups, in order of first appearance.
 fn families(spec: &StructuresSpec) -> Vec<&str> {
     let mut names: Vec<&str> = Vec::new();

@@ -126,9 +126,13 @@ pub fn resolve(
             super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
         }
     };
-    let (supports, shape_probes) = match &cell {
-        Some(c) => (c.model.supports.clone(), c.model.shape_probes.clone()),
-        None => (Vec::new(), Vec::new()),
+    let (supports, shape_probes, embedded) = match &cell {
+        Some(c) => (
+            c.model.supports.clone(),
+            c.model.shape_probes.clone(),
+            c.model.embedded.clone(),
+        ),
+        None => (Vec::new(), Vec::new(), Vec::new()),
     };
     let study = cell.map(|c| crate::analysis::CellStudy {
         description: c.description,
@@ -146,6 +150,7 @@ pub fn resolve(
             output,
             supports,
             shape_probes,
+            embedded,
         },
         cell: study,
         echo,

@@ -153,6 +153,11 @@ pub fn suspended_cell_parts(
     let geometry = SuspendedCellGeometry::build(params)?;
     let mut mesh = geometry.mesh.clone();
     let chains = geometry.append_microtubule_nodes(&mut mesh);
+    let interior: Vec<usize> = chains
+        .iter()
+        .flat_map(|c| c[1..c.len().saturating_sub(1)].iter().copied())
+        .collect();
+    mesh.insert_node_set("microtubule_interior", interior);
     let m = materials;
     let mut assignments = Vec::new();
     for (name, g, nu) in [
@@ -327,6 +332,40 @@ pub fn prestress_step(model: &SuspendedCellModel) -> Step {
     step
 }
 
+/// How the cytoskeleton is tied to the continuum (`shared/spec/cell-models.md`, "The
+/// hybrid model idea": a modelling choice the published findings decide).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Coupling {
+    /// The MTs' interior nodes follow the cytoplasm they lie in (embedded elements).
+    pub microtubules_embedded: bool,
+    /// The centrosome node follows the cytoplasm it lies in.
+    pub centrosome_tied: bool,
+}
+
+impl Coupling {
+    /// The model's embeddings (node sets `microtubule_interior`, `centrosome`).
+    pub fn embeddings(&self) -> Vec<crate::model::EmbedSpec> {
+        let spec = |name: &str| crate::model::EmbedSpec {
+            name: name.into(),
+            node_set: name.into(),
+            host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
+            tolerance: EMBED_TOLERANCE,
+        };
+        let mut out = Vec::new();
+        if self.microtubules_embedded {
+            out.push(spec("microtubule_interior"));
+        }
+        if self.centrosome_tied {
+            out.push(spec("centrosome"));
+        }
+        out
+    }
+}
+
+/// Largest overshoot (in natural coordinates) of an embedded node outside its host: MT
+/// points near the cell surface can lie just outside the faceted mesh of the sphere.
+pub const EMBED_TOLERANCE: f64 = 0.25;
+
 /// The suspended cell as a library value: its declared parameters resolved
 /// ([`params::SUSPENDED_CELL`]), materials, and which components are in.
 #[derive(Debug, Clone, PartialEq)]
@@ -337,17 +376,14 @@ pub struct SuspendedCell {
     pub materials: SuspendedCellMaterials,
     /// Components present (all by default; `[families]` in a scenario switches them off).
     pub components: Components,
+    /// How the cytoskeleton is tied to the continuum.
+    pub coupling: Coupling,
 }
 
 impl Default for SuspendedCell {
     /// The published model with the spec's values.
     fn default() -> Self {
-        let (params, materials) = params::defaults();
-        SuspendedCell {
-            params,
-            materials,
-            components: Components::default(),
-        }
+        Self::from_values(&crate::param::ParamValues::defaults(&params::SUSPENDED_CELL))
     }
 }
 
@@ -359,6 +395,7 @@ impl SuspendedCell {
             params,
             materials,
             components: Components::default(),
+            coupling: params::coupling_from_values(values),
         }
     }
 
@@ -437,6 +474,7 @@ impl SuspendedCell {
                     node_set: "inner_surface".into(),
                     axis: 0,
                 }],
+                embedded: self.coupling.embeddings(),
             },
             description,
             surface_set: "surface".into(),

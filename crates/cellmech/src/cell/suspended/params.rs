@@ -79,6 +79,8 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         p("microtubules.clearance_margin", K::Quantity(Length), D::Number(0.25), NONNEG, "smallest distance of an MT from the nucleus surface", "choice (\"never through the nucleus\")"),
         p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", "choice (\"near the nucleus\")"),
         p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
+        p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")"),
+        p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice (spec: \"The hybrid model idea\")"),
         p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", "spec (EA = 0.60 nN)"),
         p("intermediate.diameter", K::Quantity(Length), D::Number(0.010), POS, "intermediate filament diameter", SPEC),
         p("intermediate.slack", K::Quantity(Dimensionless), D::Number(0.20), NONNEG, "slack: no force below (1 + slack) × the initial length", SPEC),
@@ -152,6 +154,14 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         },
     };
     (params, materials)
+}
+
+/// How the cytoskeleton is tied to the continuum.
+pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
+    super::Coupling {
+        microtubules_embedded: v.word("microtubules.coupling") == "embedded",
+        centrosome_tied: v.word("microtubules.centrosome") == "tied",
+    }
 }
 
 /// The defaults of the table.
