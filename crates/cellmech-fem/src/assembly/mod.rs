@@ -1,8 +1,16 @@
 //! Parallel assembly of residual and tangent from any set of [`Term`]s.
 //!
 //! The pattern, the per-element scatter maps and an element colouring are built once per
-//! model ([`Assembler::new`]). Each assembly then evaluates elements colour by colour in
-//! parallel (rayon) with fixed-size stack buffers: no allocation per iteration, no locks.
+//! model ([`Assembler::new`]). Each assembly then evaluates elements colour by colour with
+//! fixed-size stack buffers: no allocation per iteration, no locks. Each colour is cut into
+//! chunks of consecutive elements ([`chunk_length`], a function of the colour's size only);
+//! inside a rayon pool of several threads the chunks of a colour run in parallel, one task
+//! per chunk, elsewhere in order on the calling thread.
+//!
+//! Determinism: elements of one colour share no DOF and colours run in order, so every
+//! residual and tangent entry receives its contributions in the same order whatever the
+//! thread count; the energy is summed per chunk and the chunk sums in chunk order. The
+//! result is bitwise identical on any number of threads.
 //!
 //! Prescribed DOFs (a mask that may change between analysis steps) keep their rows and
 //! columns in the pattern: the assembler skips their couplings and puts 1 on their diagonal,
@@ -79,6 +87,19 @@ impl SharedMut {
     }
 }
 
+/// A chunk holds at least this many elements (unless the colour is smaller): below it the
+/// cost of a task is no longer small against the elements' work. Measured in
+/// `docs/performance.md` ("Threads").
+const MIN_CHUNK_ELEMENTS: usize = 16;
+/// A colour is cut into at most this many chunks (the chunk sums live on the stack).
+const MAX_CHUNKS: usize = 64;
+
+/// Elements per chunk for a colour of `len` elements: independent of the thread count, so
+/// that the chunk sums (and hence the energy) are the same on any number of threads.
+fn chunk_length(len: usize) -> usize {
+    MIN_CHUNK_ELEMENTS.max(len.div_ceil(MAX_CHUNKS))
+}
+
 impl Assembler {
     /// Builds the sparsity pattern over all DOFs of `dof_map`, the scatter maps and the
     /// colouring for `terms`. Call once per model.
@@ -131,6 +152,11 @@ impl Assembler {
 
     /// Assembles at DOF values `u` with prescribed-DOF mask `prescribed`. Returns the total
     /// internal energy. `terms` must be the same terms, in the same order, as in `new`.
+    ///
+    /// Runs in parallel on the rayon pool it is called in (call it inside
+    /// `ThreadPool::install`, as [`crate::solve::Problem`] does; outside any pool rayon's
+    /// global pool is used). The result does not depend on the number of threads. When
+    /// elements fail, the error is the first failing element in colour order.
     pub fn assemble(
         &self,
         terms: &[Box<dyn Term>],
@@ -153,21 +179,48 @@ impl Assembler {
             p.fill(0.0);
             (du, SharedMut(p.as_mut_ptr()))
         });
+        let parallel = rayon::current_num_threads() > 1;
         let mut energy = 0.0;
         for (term, layout) in terms.iter().zip(&self.layouts) {
+            let sink = Sink {
+                residual,
+                magnitude,
+                tangent,
+                predictor,
+                prescribed,
+            };
             for color in &layout.colors {
-                let sink = Sink {
-                    residual,
-                    magnitude,
-                    tangent,
-                    predictor,
-                    prescribed,
+                let chunk_len = chunk_length(color.len());
+                let chunks = color.len().div_ceil(chunk_len);
+                let mut sums = [0.0f64; MAX_CHUNKS];
+                // Each chunk stops at its first failing element; the first chunk's failure
+                // is reported, so the error does not depend on the schedule either.
+                let run = |(sum, chunk): (&mut f64, &[u32])| -> Option<AssemblyError> {
+                    for &e in chunk {
+                        match assemble_element(term.as_ref(), layout, e as usize, u, &sink) {
+                            Ok(energy) => *sum += energy,
+                            Err(error) => return Some(error),
+                        }
+                    }
+                    None
                 };
-                energy += color
-                    .par_iter()
-                    .with_min_len(64)
-                    .map(|&e| assemble_element(term.as_ref(), layout, e as usize, u, &sink))
-                    .try_reduce(|| 0.0, |a, b| Ok(a + b))?;
+                let failure = if parallel && chunks > 1 {
+                    sums[..chunks]
+                        .par_iter_mut()
+                        .zip(color.par_chunks(chunk_len))
+                        .with_max_len(1)
+                        .map(run)
+                        .reduce(|| None, |a, b| a.or(b))
+                } else {
+                    sums[..chunks]
+                        .iter_mut()
+                        .zip(color.chunks(chunk_len))
+                        .find_map(run)
+                };
+                if let Some(error) = failure {
+                    return Err(error);
+                }
+                energy += sums[..chunks].iter().sum::<f64>();
             }
         }
         if let Some(t) = tangent {
