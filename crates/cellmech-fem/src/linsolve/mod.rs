@@ -13,7 +13,7 @@ pub mod test_matrices;
 #[cfg(test)]
 mod tests;
 pub use dense::DenseSolver;
-pub use faer_solver::{AnalysisInfo, FaerSparseSolver};
+pub use faer_solver::{AnalysisInfo, FaerSparseSolver, DEFAULT_PARALLEL_MIN_FLOPS};
 pub use ordering::FillOrdering;
 pub use pattern::SparsityPattern;
 
