@@ -70,6 +70,8 @@ pub struct AssemblyOutput<'a> {
 pub struct Assembler {
     pattern: SparsityPattern,
     layouts: Vec<TermLayout>,
+    /// Least elements per chunk ([`DEFAULT_MIN_CHUNK_ELEMENTS`]).
+    min_chunk: usize,
 }
 
 /// Raw pointer that may be shared across threads because colouring guarantees that
@@ -87,17 +89,18 @@ impl SharedMut {
     }
 }
 
-/// A chunk holds at least this many elements (unless the colour is smaller): below it the
-/// cost of a task is no longer small against the elements' work. Measured in
-/// `docs/performance.md` ("Threads").
-const MIN_CHUNK_ELEMENTS: usize = 16;
+/// Default of [`Assembler::with_min_chunk_elements`]: a chunk holds at least this many
+/// elements (unless the colour is smaller). Measured with
+/// `cargo run --release -p cellmech-fem --example assembly_threads`
+/// (`docs/performance.md`, section "Threads").
+pub const DEFAULT_MIN_CHUNK_ELEMENTS: usize = 16;
 /// A colour is cut into at most this many chunks (the chunk sums live on the stack).
 const MAX_CHUNKS: usize = 64;
 
 /// Elements per chunk for a colour of `len` elements: independent of the thread count, so
 /// that the chunk sums (and hence the energy) are the same on any number of threads.
-fn chunk_length(len: usize) -> usize {
-    MIN_CHUNK_ELEMENTS.max(len.div_ceil(MAX_CHUNKS))
+fn chunk_length(len: usize, min_chunk: usize) -> usize {
+    min_chunk.max(1).max(len.div_ceil(MAX_CHUNKS))
 }
 
 impl Assembler {
@@ -125,7 +128,19 @@ impl Assembler {
             fill_scatter_map(layout, &pattern);
             layout.colors = coloring::color_elements(n, &layout.dof_offsets, &layout.dofs);
         }
-        Assembler { pattern, layouts }
+        Assembler {
+            pattern,
+            layouts,
+            min_chunk: DEFAULT_MIN_CHUNK_ELEMENTS,
+        }
+    }
+
+    /// Sets the least number of elements per parallel chunk (at most 64 chunks per colour
+    /// whatever this is). The result does not depend on it except for the energy's
+    /// round-off, which is the same on any thread count for a given value.
+    pub fn with_min_chunk_elements(mut self, elements: usize) -> Self {
+        self.min_chunk = elements.max(1);
+        self
     }
 
     /// The sparsity pattern (lower triangle over all DOFs).
@@ -143,6 +158,14 @@ impl Assembler {
             }
         }
         touched.iter().map(|t| !t).collect()
+    }
+
+    /// Number of elements of each colour, term by term (for diagnostics).
+    pub fn color_sizes(&self) -> Vec<Vec<usize>> {
+        self.layouts
+            .iter()
+            .map(|l| l.colors.iter().map(Vec::len).collect())
+            .collect()
     }
 
     /// Number of colours of each term (for diagnostics).
@@ -190,7 +213,7 @@ impl Assembler {
                 prescribed,
             };
             for color in &layout.colors {
-                let chunk_len = chunk_length(color.len());
+                let chunk_len = chunk_length(color.len(), self.min_chunk);
                 let chunks = color.len().div_ceil(chunk_len);
                 let mut sums = [0.0f64; MAX_CHUNKS];
                 // Each chunk stops at its first failing element; the first chunk's failure
