@@ -121,10 +121,10 @@ impl Default for FaerSparseSolver {
 impl FaerSparseSolver {
     /// New solver with nested-dissection ordering and pivot tolerance `1e-12`. A numeric
     /// factorisation runs on at most `threads` threads of the rayon pool it is called in
-    /// (`0`: all of them; `1`: always sequential), and sequentially when it is smaller than
-    /// [`DEFAULT_PARALLEL_MIN_FLOPS`] (where splitting it costs more than it saves; by
-    /// default: always, see there).
-    /// Triangular solves follow the same choice.
+    /// (`0`: all of them; `1`: always sequential), and sequentially when it has fewer flops
+    /// than [`FaerSparseSolver::with_parallel_min_flops`] (default
+    /// [`DEFAULT_PARALLEL_MIN_FLOPS`]: always sequential, see there). Triangular solves
+    /// follow the same choice.
     /// Run it inside the pool (`ThreadPool::install`, as [`crate::solve::Problem`] does):
     /// called from outside, every parallel section goes through rayon's cross-thread latch.
     pub fn new(threads: usize) -> Self {
