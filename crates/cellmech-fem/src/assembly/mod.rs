@@ -1,8 +1,16 @@
 //! Parallel assembly of residual and tangent from any set of [`Term`]s.
 //!
 //! The pattern, the per-element scatter maps and an element colouring are built once per
-//! model ([`Assembler::new`]). Each assembly then evaluates elements colour by colour in
-//! parallel (rayon) with fixed-size stack buffers: no allocation per iteration, no locks.
+//! model ([`Assembler::new`]). Each assembly then evaluates elements colour by colour with
+//! fixed-size stack buffers: no allocation per iteration, no locks. Each colour is cut into
+//! chunks of consecutive elements ([`chunk_length`], a function of the colour's size only);
+//! inside a rayon pool of several threads the chunks of a colour run in parallel, one task
+//! per chunk, elsewhere in order on the calling thread.
+//!
+//! Determinism: elements of one colour share no DOF and colours run in order, so every
+//! residual and tangent entry receives its contributions in the same order whatever the
+//! thread count; the energy is summed per chunk and the chunk sums in chunk order. The
+//! result is bitwise identical on any number of threads.
 //!
 //! Prescribed DOFs (a mask that may change between analysis steps) keep their rows and
 //! columns in the pattern: the assembler skips their couplings and puts 1 on their diagonal,
@@ -62,6 +70,8 @@ pub struct AssemblyOutput<'a> {
 pub struct Assembler {
     pattern: SparsityPattern,
     layouts: Vec<TermLayout>,
+    /// Least elements per chunk ([`DEFAULT_MIN_CHUNK_ELEMENTS`]).
+    min_chunk: usize,
 }
 
 /// Raw pointer that may be shared across threads because colouring guarantees that
@@ -77,6 +87,20 @@ impl SharedMut {
     unsafe fn add(self, i: usize, v: f64) {
         *self.0.add(i) += v;
     }
+}
+
+/// Default of [`Assembler::with_min_chunk_elements`]: a chunk holds at least this many
+/// elements (unless the colour is smaller). Measured with
+/// `cargo run --release -p cellmech-fem --example assembly_threads`
+/// (`docs/performance.md`, section "Threads").
+pub const DEFAULT_MIN_CHUNK_ELEMENTS: usize = 16;
+/// A colour is cut into at most this many chunks (the chunk sums live on the stack).
+const MAX_CHUNKS: usize = 64;
+
+/// Elements per chunk for a colour of `len` elements: independent of the thread count, so
+/// that the chunk sums (and hence the energy) are the same on any number of threads.
+fn chunk_length(len: usize, min_chunk: usize) -> usize {
+    min_chunk.max(1).max(len.div_ceil(MAX_CHUNKS))
 }
 
 impl Assembler {
@@ -104,7 +128,19 @@ impl Assembler {
             fill_scatter_map(layout, &pattern);
             layout.colors = coloring::color_elements(n, &layout.dof_offsets, &layout.dofs);
         }
-        Assembler { pattern, layouts }
+        Assembler {
+            pattern,
+            layouts,
+            min_chunk: DEFAULT_MIN_CHUNK_ELEMENTS,
+        }
+    }
+
+    /// Sets the least number of elements per parallel chunk (at most 64 chunks per colour
+    /// whatever this is). The result does not depend on it except for the energy's
+    /// round-off, which is the same on any thread count for a given value.
+    pub fn with_min_chunk_elements(mut self, elements: usize) -> Self {
+        self.min_chunk = elements.max(1);
+        self
     }
 
     /// The sparsity pattern (lower triangle over all DOFs).
@@ -124,6 +160,14 @@ impl Assembler {
         touched.iter().map(|t| !t).collect()
     }
 
+    /// Number of elements of each colour, term by term (for diagnostics).
+    pub fn color_sizes(&self) -> Vec<Vec<usize>> {
+        self.layouts
+            .iter()
+            .map(|l| l.colors.iter().map(Vec::len).collect())
+            .collect()
+    }
+
     /// Number of colours of each term (for diagnostics).
     pub fn color_counts(&self) -> Vec<usize> {
         self.layouts.iter().map(|l| l.colors.len()).collect()
@@ -131,6 +175,11 @@ impl Assembler {
 
     /// Assembles at DOF values `u` with prescribed-DOF mask `prescribed`. Returns the total
     /// internal energy. `terms` must be the same terms, in the same order, as in `new`.
+    ///
+    /// Runs in parallel on the rayon pool it is called in (call it inside
+    /// `ThreadPool::install`, as [`crate::solve::Problem`] does; outside any pool rayon's
+    /// global pool is used). The result does not depend on the number of threads. When
+    /// elements fail, the error is the first failing element in colour order.
     pub fn assemble(
         &self,
         terms: &[Box<dyn Term>],
@@ -153,21 +202,48 @@ impl Assembler {
             p.fill(0.0);
             (du, SharedMut(p.as_mut_ptr()))
         });
+        let parallel = rayon::current_num_threads() > 1;
         let mut energy = 0.0;
         for (term, layout) in terms.iter().zip(&self.layouts) {
+            let sink = Sink {
+                residual,
+                magnitude,
+                tangent,
+                predictor,
+                prescribed,
+            };
             for color in &layout.colors {
-                let sink = Sink {
-                    residual,
-                    magnitude,
-                    tangent,
-                    predictor,
-                    prescribed,
+                let chunk_len = chunk_length(color.len(), self.min_chunk);
+                let chunks = color.len().div_ceil(chunk_len);
+                let mut sums = [0.0f64; MAX_CHUNKS];
+                // Each chunk stops at its first failing element; the first chunk's failure
+                // is reported, so the error does not depend on the schedule either.
+                let run = |(sum, chunk): (&mut f64, &[u32])| -> Option<AssemblyError> {
+                    for &e in chunk {
+                        match assemble_element(term.as_ref(), layout, e as usize, u, &sink) {
+                            Ok(energy) => *sum += energy,
+                            Err(error) => return Some(error),
+                        }
+                    }
+                    None
                 };
-                energy += color
-                    .par_iter()
-                    .with_min_len(64)
-                    .map(|&e| assemble_element(term.as_ref(), layout, e as usize, u, &sink))
-                    .try_reduce(|| 0.0, |a, b| Ok(a + b))?;
+                let failure = if parallel && chunks > 1 {
+                    sums[..chunks]
+                        .par_iter_mut()
+                        .zip(color.par_chunks(chunk_len))
+                        .with_max_len(1)
+                        .map(run)
+                        .reduce(|| None, |a, b| a.or(b))
+                } else {
+                    sums[..chunks]
+                        .iter_mut()
+                        .zip(color.chunks(chunk_len))
+                        .find_map(run)
+                };
+                if let Some(error) = failure {
+                    return Err(error);
+                }
+                energy += sums[..chunks].iter().sum::<f64>();
             }
         }
         if let Some(t) = tangent {

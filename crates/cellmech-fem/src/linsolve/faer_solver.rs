@@ -41,10 +41,24 @@ pub struct AnalysisInfo {
     pub ordering_seconds: f64,
     /// Wall time of the symbolic factorisation, s.
     pub symbolic_seconds: f64,
+    /// Floating-point operations of one numeric Cholesky, `Σ_j c_j²` over the columns of L
+    /// (`c_j`: stored entries of column j, diagonal included); decides whether the numeric
+    /// factorisation runs in parallel (see [`FaerSparseSolver::with_parallel_min_flops`]).
+    pub factor_flops: f64,
 }
 
 /// Largest relative forward error of the LU probe solve for the LU to be accepted.
 const LU_PROBE_TOLERANCE: f64 = 1e-6;
+
+/// Default of [`FaerSparseSolver::with_parallel_min_flops`]: numeric factorisations with fewer
+/// flops (`AnalysisInfo::factor_flops`) run sequentially even inside a pool of several
+/// threads. Infinite: on the project's 2-core machine faer's parallel supernodal
+/// factorisation was about 2x slower than the sequential one at every size measured (up to
+/// 16.5k DOFs, 4.8e9 flops), and it is not bitwise reproducible (differences of ~7e-16
+/// relative from about 6k DOFs). Measured with
+/// `cargo run --release -p cellmech-fem --example parallel_threshold`
+/// (`docs/performance.md`, section "Threads").
+pub const DEFAULT_PARALLEL_MIN_FLOPS: f64 = f64::INFINITY;
 
 /// Everything `analyze` computes once per pattern, plus reusable numeric buffers.
 struct Analysis {
@@ -61,6 +75,8 @@ struct Analysis {
     bk_fwd: Vec<usize>,
     bk_inv: Vec<usize>,
     mem: MemBuffer,
+    /// Threads the workspace `mem` was sized for.
+    max_threads: usize,
     /// Copy of the last factorised values (for iterative refinement of pivoted solves).
     values: Vec<f64>,
     info: AnalysisInfo,
@@ -85,7 +101,10 @@ enum Numeric {
 /// finds the matrix positive definite (no negative and no 2x2 pivots) the next call tries LLᵀ
 /// again, which costs nothing extra.
 pub struct FaerSparseSolver {
-    par: Par,
+    /// Most threads a factorisation may use (0: the size of the calling rayon pool).
+    threads: usize,
+    /// Factorisations below this many flops run sequentially.
+    parallel_min_flops: f64,
     ordering: FillOrdering,
     pivot_tolerance: f64,
     analysis: Option<Analysis>,
@@ -100,20 +119,47 @@ impl Default for FaerSparseSolver {
 }
 
 impl FaerSparseSolver {
-    /// New solver running on `threads` rayon threads (`0`: the size of rayon's current pool),
-    /// nested-dissection ordering, pivot tolerance `1e-12`.
+    /// New solver with nested-dissection ordering and pivot tolerance `1e-12`. A numeric
+    /// factorisation runs on at most `threads` threads of the rayon pool it is called in
+    /// (`0`: all of them; `1`: always sequential), and sequentially when it has fewer flops
+    /// than [`FaerSparseSolver::with_parallel_min_flops`] (default
+    /// [`DEFAULT_PARALLEL_MIN_FLOPS`]: always sequential, see there). Triangular solves
+    /// follow the same choice.
+    /// Run it inside the pool (`ThreadPool::install`, as [`crate::solve::Problem`] does):
+    /// called from outside, every parallel section goes through rayon's cross-thread latch.
     pub fn new(threads: usize) -> Self {
         FaerSparseSolver {
-            par: if threads == 1 {
-                Par::Seq
-            } else {
-                Par::rayon(threads)
-            },
+            threads,
+            parallel_min_flops: DEFAULT_PARALLEL_MIN_FLOPS,
             ordering: FillOrdering::NestedDissection,
             pivot_tolerance: 1e-12,
             analysis: None,
             numeric: None,
             skip_cholesky: false,
+        }
+    }
+
+    /// Factorisations with fewer flops than this ([`AnalysisInfo::factor_flops`]) run
+    /// sequentially; `0` makes every factorisation parallel when there are threads.
+    pub fn with_parallel_min_flops(mut self, flops: f64) -> Self {
+        self.parallel_min_flops = flops;
+        self
+    }
+
+    /// The parallelism of the next numeric factorisation: sequential when the solver is
+    /// limited to one thread, the calling pool has one, the factorisation is below the
+    /// threshold, or the workspace was sized for one thread.
+    fn factor_par(&self, a: &Analysis) -> Par {
+        let available = rayon::current_num_threads();
+        let threads = match self.threads {
+            0 => available,
+            t => t.min(available),
+        }
+        .min(a.max_threads);
+        if threads <= 1 || a.info.factor_flops < self.parallel_min_flops {
+            Par::Seq
+        } else {
+            Par::rayon(threads)
         }
     }
 
@@ -146,6 +192,7 @@ impl FaerSparseSolver {
     }
 
     fn try_llt(&mut self, values: &[f64]) -> Result<FactorInfo, String> {
+        let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         let mat = csc_ref(&a.pattern, values);
         let mut stack = MemStack::new(&mut a.mem);
@@ -154,7 +201,7 @@ impl FaerSparseSolver {
             mat,
             Side::Lower,
             Default::default(),
-            self.par,
+            par,
             &mut stack,
             Spec::default(),
         );
@@ -181,6 +228,7 @@ impl FaerSparseSolver {
 
     /// Returns the factor info and whether the matrix proved positive definite.
     fn try_lblt(&mut self, values: &[f64]) -> Result<(FactorInfo, bool), String> {
+        let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         let mat = csc_ref(&a.pattern, values);
         let mut stack = MemStack::new(&mut a.mem);
@@ -191,7 +239,7 @@ impl FaerSparseSolver {
             &mut a.bk_inv,
             mat,
             Side::Lower,
-            self.par,
+            par,
             &mut stack,
             Spec::default(),
         );
@@ -273,12 +321,16 @@ impl FaerSparseSolver {
 
     /// One solve with the current factor, no refinement.
     fn raw_solve(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
+        let par = self.factor_par(
+            self.analysis
+                .as_ref()
+                .ok_or_else(|| usage("solve before analyze"))?,
+        );
         let a = self
             .analysis
             .as_mut()
             .ok_or_else(|| usage("solve before analyze"))?;
         let n = a.n;
-        let par = self.par;
         let mut stack = MemStack::new(&mut a.mem);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         match self.numeric.as_ref() {
@@ -346,12 +398,18 @@ impl LinearSolver for FaerSparseSolver {
             return Err(usage("the fill-reducing ordering is not a permutation"));
         }
         let sym = supernodal(&symbolic).map_err(|e| usage(&e))?;
-        let stored_l = (0..sym.n_supernodes())
-            .map(|s| {
-                let w = sym.supernode_end()[s] - sym.supernode_begin()[s];
-                let below = sym.col_ptr_for_row_idx()[s + 1] - sym.col_ptr_for_row_idx()[s];
-                w * (w + 1) / 2 + w * below
-            })
+        let widths = (0..sym.n_supernodes()).map(|s| {
+            let w = sym.supernode_end()[s] - sym.supernode_begin()[s];
+            let below = sym.col_ptr_for_row_idx()[s + 1] - sym.col_ptr_for_row_idx()[s];
+            (w, below)
+        });
+        let stored_l = widths
+            .clone()
+            .map(|(w, below)| w * (w + 1) / 2 + w * below)
+            .sum();
+        // Column k of a supernode of width w stores (w - k) + below entries.
+        let factor_flops = widths
+            .flat_map(|(w, below)| (0..w).map(move |k| ((w - k + below) as f64).powi(2)))
             .sum();
         let info = AnalysisInfo {
             ordering: self.ordering,
@@ -362,11 +420,25 @@ impl LinearSolver for FaerSparseSolver {
             supernodes: sym.n_supernodes(),
             ordering_seconds,
             symbolic_seconds,
+            factor_flops,
+        };
+        // The workspace covers the widest parallelism a later factorisation may pick.
+        let max_threads = match self.threads {
+            0 => rayon::current_num_threads(),
+            t => t,
+        }
+        .max(1);
+        let widest = if max_threads > 1 {
+            Par::rayon(max_threads)
+        } else {
+            Par::Seq
         };
         let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_llt_scratch::<f64>(self.par, Spec::default()),
-            symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(self.par, Spec::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, self.par),
+            symbolic.factorize_numeric_llt_scratch::<f64>(widest, Spec::default()),
+            symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(widest, Spec::default()),
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default()),
+            symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(Par::Seq, Spec::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
         let mem = MemBuffer::try_new(req)
             .map_err(|_| usage("out of memory for the factorisation workspace"))?;
@@ -382,6 +454,7 @@ impl LinearSolver for FaerSparseSolver {
             bk_inv: vec![0; n],
             symbolic,
             mem,
+            max_threads,
             values: Vec::new(),
             info,
         });

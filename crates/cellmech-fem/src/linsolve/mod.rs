@@ -13,12 +13,12 @@ pub mod test_matrices;
 #[cfg(test)]
 mod tests;
 pub use dense::DenseSolver;
-pub use faer_solver::{AnalysisInfo, FaerSparseSolver};
+pub use faer_solver::{AnalysisInfo, FaerSparseSolver, DEFAULT_PARALLEL_MIN_FLOPS};
 pub use ordering::FillOrdering;
 pub use pattern::SparsityPattern;
 
-/// The default solver of the engine: [`FaerSparseSolver`] with nested dissection on `threads`
-/// rayon threads (`0`: rayon's current pool).
+/// The default solver of the engine: [`FaerSparseSolver`] with nested dissection, on at most
+/// `threads` threads of the calling rayon pool (`0`: all; see [`FaerSparseSolver::new`]).
 pub fn default_solver(threads: usize) -> Box<dyn LinearSolver> {
     Box::new(FaerSparseSolver::new(threads))
 }

@@ -84,6 +84,9 @@ pub enum SolveError {
         /// The value at the end of the step.
         last: f64,
     },
+    /// The thread pool could not be built (the system refused the threads).
+    #[error("cannot start the solver's threads: {0}")]
+    Threads(String),
     /// The linear solver could not analyse the pattern.
     #[error(transparent)]
     LinearSolver(#[from] LinSolveError),

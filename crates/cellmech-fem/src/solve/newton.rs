@@ -212,14 +212,19 @@ impl Problem {
     }
 
     fn factorize_and_solve(&mut self) -> Result<(), FailureReason> {
-        let start = Instant::now();
-        self.last_factor = Some(self.solver.factorize(&self.work.values)?);
-        let factored = Instant::now();
-        self.work.delta.copy_from_slice(&self.work.rhs);
-        self.solver.solve_in_place(&mut self.work.delta)?;
+        let (solver, work) = (&mut self.solver, &mut self.work);
+        let (factor, start, factored, solved) = self.pool.install(|| {
+            let start = Instant::now();
+            let factor = solver.factorize(&work.values)?;
+            let factored = Instant::now();
+            work.delta.copy_from_slice(&work.rhs);
+            solver.solve_in_place(&mut work.delta)?;
+            Ok::<_, FailureReason>((factor, start, factored, Instant::now()))
+        })?;
+        self.last_factor = Some(factor);
         self.expand_correction();
         self.timings.factorization_s += (factored - start).as_secs_f64();
-        self.timings.solve_s += factored.elapsed().as_secs_f64();
+        self.timings.solve_s += (solved - factored).as_secs_f64();
         self.timings.factorizations += 1;
         if self.work.delta.iter().any(|x| !x.is_finite()) {
             return Err(FailureReason::NotFinite { iteration: 0 });
@@ -234,18 +239,19 @@ impl Problem {
             self.work.du_prescribed.as_slice(),
             self.work.predictor.as_mut_slice(),
         ));
-        let out = AssemblyOutput {
+        let (assembler, terms, u, prescribed) =
+            (&self.assembler, &self.terms, &self.u, &self.prescribed);
+        let output = AssemblyOutput {
             residual: &mut self.residual,
             magnitude: Some(&mut self.work.magnitude),
             tangent: Some(&mut self.work.values),
             predictor,
         };
-        self.energy = match &mut self.condensation {
-            Some(c) => c.assemble(&self.assembler, &self.terms, &self.u, &self.prescribed, out),
-            None => self
-                .assembler
-                .assemble(&self.terms, &self.u, &self.prescribed, out),
-        }?;
+        let condensation = &mut self.condensation;
+        self.energy = self.pool.install(|| match condensation {
+            Some(c) => c.assemble(assembler, terms, u, prescribed, output),
+            None => assembler.assemble(terms, u, prescribed, output),
+        })?;
         self.timings.assembly_s += start.elapsed().as_secs_f64();
         self.timings.assemblies += 1;
         Ok(())
@@ -257,24 +263,23 @@ impl Problem {
         for d in 0..self.u.len() {
             self.work.trial[d] = self.u[d] + s * self.work.delta[d];
         }
-        let out = AssemblyOutput {
+        let (assembler, terms, trial, prescribed) = (
+            &self.assembler,
+            &self.terms,
+            &self.work.trial,
+            &self.prescribed,
+        );
+        let output = AssemblyOutput {
             residual: &mut self.work.residual_trial,
             magnitude: None,
             tangent: None,
             predictor: None,
         };
-        match &mut self.condensation {
-            Some(c) => c.assemble(
-                &self.assembler,
-                &self.terms,
-                &self.work.trial,
-                &self.prescribed,
-                out,
-            ),
-            None => self
-                .assembler
-                .assemble(&self.terms, &self.work.trial, &self.prescribed, out),
-        }?;
+        let condensation = &mut self.condensation;
+        self.pool.install(|| match condensation {
+            Some(c) => c.assemble(assembler, terms, trial, prescribed, output),
+            None => assembler.assemble(terms, trial, prescribed, output),
+        })?;
         self.timings.residual_only_s += start.elapsed().as_secs_f64();
         Ok(self.projection(&self.work.residual_trial))
     }

@@ -43,7 +43,15 @@ pub struct Timings {
 }
 
 /// A nonlinear static problem.
+///
+/// Threads: the problem owns one rayon pool, shared by assembly and factorisation, and runs
+/// every assembly, factorisation and solve inside it (`ThreadPool::install`), so their
+/// parallel sections start from a pool thread and never cross rayon's cross-thread latch.
+/// The pool has [`Problem::threads`] threads: by default rayon's choice (`RAYON_NUM_THREADS`
+/// when set, else one per logical CPU); [`Problem::set_threads`] changes it. Results are
+/// bitwise identical on any number of threads (`docs/performance.md`, section "Threads").
 pub struct Problem {
+    pub(super) pool: rayon::ThreadPool,
     pub(super) dof_map: DofMap,
     pub(super) terms: Vec<Box<dyn Term>>,
     pub(super) assembler: Assembler,
@@ -80,7 +88,8 @@ impl Problem {
         };
     }
 
-    /// Builds the pattern and the symbolic factorisation for these terms.
+    /// Builds the pattern and the symbolic factorisation for these terms, and the thread
+    /// pool (rayon's default size; see [`Problem::set_threads`]).
     pub fn new(
         dof_map: DofMap,
         terms: Vec<Box<dyn Term>>,
@@ -108,6 +117,7 @@ impl Problem {
         constraints: Option<LinearConstraints>,
         mut solver: Box<dyn LinearSolver>,
     ) -> Result<Self, SolveError> {
+        let pool = build_pool(0)?;
         let assembler = Assembler::new(&dof_map, &terms);
         let mut untouched = assembler.untouched_dofs();
         let condensation = match constraints {
@@ -122,10 +132,11 @@ impl Problem {
             Some(c) => c.reduced_pattern(),
             None => assembler.pattern(),
         };
-        solver.analyze(pattern)?;
+        pool.install(|| solver.analyze(pattern))?;
         let n = dof_map.num_dofs();
         let nnz = pattern.nnz();
         Ok(Problem {
+            pool,
             dof_map,
             terms,
             assembler,
@@ -154,6 +165,27 @@ impl Problem {
             length_scale: 0.0,
             condensation,
         })
+    }
+
+    /// Sets the number of threads for assembly and factorisation: `0` for rayon's default
+    /// (`RAYON_NUM_THREADS` when set, else one per logical CPU), `1` for none besides the
+    /// pool's own. Builds a new pool; fails only when the system refuses the threads (the
+    /// old pool is kept then). A linear solver sizes its workspace for the pool it was
+    /// analysed in, so a larger pool set later is used by assembly only.
+    pub fn set_threads(&mut self, threads: usize) -> Result<(), SolveError> {
+        self.pool = build_pool(threads)?;
+        Ok(())
+    }
+
+    /// Number of threads of the problem's pool.
+    pub fn threads(&self) -> usize {
+        self.pool.current_num_threads()
+    }
+
+    /// Runs `f` on the problem's thread pool (for callers that assemble or factorise
+    /// outside [`Problem::run_step`] and want the same parallelism).
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        self.pool.install(f)
     }
 
     /// The DOF numbering.
@@ -430,4 +462,13 @@ impl Problem {
         self.check_step_constraints(step).map_err(invalid)?;
         Ok(())
     }
+}
+
+/// The problem's thread pool: `threads` threads (0: rayon's default).
+fn build_pool(threads: usize) -> Result<rayon::ThreadPool, SolveError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("cellmech-{i}"))
+        .build()
+        .map_err(|e| SolveError::Threads(e.to_string()))
 }
