@@ -43,7 +43,9 @@ fn main() {
     let terms: Vec<Box<dyn Term>> = vec![Box::new(block)];
     let dofs = DofMap::translational(mesh.num_nodes());
     let n = dofs.num_dofs();
-    let u: Vec<f64> = (0..n).map(|i| 0.01 * ((i * 7919 % 23) as f64 - 11.0)).collect();
+    let u: Vec<f64> = (0..n)
+        .map(|i| 0.01 * ((i * 7919 % 23) as f64 - 11.0))
+        .collect();
     let prescribed = vec![false; n];
     let base = Assembler::new(&dofs, &terms);
     println!(
@@ -143,6 +145,11 @@ fn process_cpu_seconds() -> f64 {
     // 13th, in clock ticks (100 per second on Linux).
     let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
     let fields: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|f| f.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
     (ticks(11) + ticks(12)) / 100.0
 }
