@@ -45,10 +45,22 @@ pub enum Command {
     Build(BuildArgs),
     /// Print a built-in example scenario (list them without a name).
     Example(ExampleArgs),
-    /// Time assembly, factorisation, solve and a Newton iteration on sphere meshes.
+    /// Time the hot paths on sphere meshes, or whole analyses with --analyses.
     ///
-    /// With --export-matrices DIR the final tangent of each size is written as Matrix Market
+    /// Default: assembly, factorisation, solve and a Newton iteration on sphere meshes. With
+    /// --export-matrices DIR the final tangent of each size is written as Matrix Market
     /// (sphere_<size>.mtx) for `benches/cholmod_compare.py`, which times CHOLMOD on it.
+    ///
+    /// With --analyses, runs whole analyses (suspended-tension, suspended-compression,
+    /// plates) and prints wall time, Newton iterations, factorisations and the time split
+    /// per analysis and per step; --save FILE stores the figures as a baseline and
+    /// --baseline FILE prints each figure's ratio to it, so a regression is visible.
+    ///
+    /// Examples:
+    ///   cellmech bench --analyses                       # all three, default meshes
+    ///   cellmech bench --analyses plates --coarse       # the short CI variant
+    ///   cellmech bench --analyses --save base.json      # later: --baseline base.json
+    #[command(verbatim_doc_comment)]
     Bench(BenchArgs),
     /// The declared parameters of a cell model or protocol: key, default, range, source.
     ///
@@ -83,6 +95,18 @@ pub struct BenchArgs {
     /// Write each final tangent to DIR/sphere_<size>.mtx.
     #[arg(long, value_name = "DIR")]
     pub export_matrices: Option<PathBuf>,
+    /// Time whole analyses instead (all when no name is given).
+    #[arg(long, value_delimiter = ',', num_args = 0.., value_name = "NAMES")]
+    pub analyses: Option<Vec<String>>,
+    /// With --analyses: cell tests on a 448-element cell (the CI variant).
+    #[arg(long)]
+    pub coarse: bool,
+    /// With --analyses: write the figures to FILE (JSON) as a baseline.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<PathBuf>,
+    /// With --analyses: print each figure's ratio to the baseline in FILE.
+    #[arg(long, value_name = "FILE")]
+    pub baseline: Option<PathBuf>,
     /// Print the timings as JSON.
     #[arg(long)]
     pub json: bool,

@@ -185,3 +185,104 @@ fn write_tangent(problem: &Problem, pattern: &SparsityPattern, path: &Path) -> R
     }
     cellmech_io::write_atomic(path, &text).map_err(|e| e.to_string())
 }
+
+/// Whole analyses timed by `cellmech bench --analyses`: name, shipped example, and what it
+/// stands for.
+pub const ANALYSES: [(&str, &str, &str); 3] = [
+    ("suspended-tension", "suspended-tension", "the default cell test: tension to 6.3 um"),
+    ("suspended-compression", "suspended-compression", "cell compression to 50 %"),
+    ("plates", "plate-compression", "neo-Hookean sphere between frictionless plates"),
+];
+
+/// The cost of one whole analysis.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct AnalysisBench {
+    /// Entry name.
+    pub name: String,
+    /// Whether the coarse (CI) variant ran.
+    pub coarse: bool,
+    /// Hex8 elements.
+    pub elements: usize,
+    /// Degrees of freedom.
+    pub dofs: usize,
+    /// Wall time of the whole run, outputs included (s).
+    pub wall_s: f64,
+    /// Newton iterations over all steps.
+    pub iterations: usize,
+    /// Numeric factorisations.
+    pub factorizations: usize,
+    /// Tangent assemblies.
+    pub assemblies: usize,
+    /// Time in tangent assembly (s).
+    pub assembly_s: f64,
+    /// Time in residual-only assembly (line searches) (s).
+    pub residual_only_s: f64,
+    /// Time in factorisation (s).
+    pub factorization_s: f64,
+    /// Time in triangular solves (s).
+    pub solve_s: f64,
+    /// Wall time outside the solver (model build, outputs) (s).
+    pub other_s: f64,
+    /// Per step: name, increments, iterations, cutbacks, wall time (s).
+    pub steps: Vec<(String, usize, usize, usize, f64)>,
+    /// The headline result: the protocol's last force, or the last value of the first
+    /// force column (nN).
+    pub result: f64,
+}
+
+/// Runs the analysis `name` of [`ANALYSES`] (with a 448-element cell or the example's own
+/// mesh when `coarse`) in a scratch directory under `dir` and measures it.
+pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBench, String> {
+    let (_, example, _) = ANALYSES
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .ok_or_else(|| format!("no analysis benchmark named {name}"))?;
+    let example = crate::examples::find(example).ok_or_else(|| format!("no example {example}"))?;
+    let mut text = example.text.to_string();
+    if coarse {
+        text = text.replacen(
+            "[cell]\n",
+            "[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n",
+            1,
+        );
+        text = text.replacen("resolution = \"default\"", "# resolution", 1);
+    }
+    text = text.replace("vtk_every = 5", "vtk_every = 0");
+    let analysis = crate::scenario::parse(&text, &format!("<bench: {name}>"), Path::new("."))
+        .map_err(|e| e.to_string())?;
+    let out = dir.join(name);
+    let start = Instant::now();
+    let summary = crate::run::run(&analysis, &out, &mut cellmech_fem::solve::NullObserver)
+        .map_err(|e| e.to_string())?;
+    let wall_s = start.elapsed().as_secs_f64();
+    let t = summary.solver_timings;
+    let result = match summary.protocol.as_ref().and_then(|p| p.last) {
+        Some(p) => p.force_nn,
+        None => summary
+            .final_values
+            .iter()
+            .find(|(k, _)| k.ends_with("_nN") && k.contains("force"))
+            .map_or(f64::NAN, |(_, v)| *v),
+    };
+    Ok(AnalysisBench {
+        name: name.into(),
+        coarse,
+        elements: summary.size.elements,
+        dofs: summary.size.dofs,
+        wall_s,
+        iterations: summary.steps.iter().map(|s| s.iterations).sum(),
+        factorizations: t.factorizations,
+        assemblies: t.assemblies,
+        assembly_s: t.assembly_s,
+        residual_only_s: t.residual_only_s,
+        factorization_s: t.factorization_s,
+        solve_s: t.solve_s,
+        other_s: wall_s - t.assembly_s - t.residual_only_s - t.factorization_s - t.solve_s,
+        steps: summary
+            .steps
+            .iter()
+            .map(|s| (s.name.clone(), s.increments, s.iterations, s.cutbacks, s.wall_time_s))
+            .collect(),
+        result,
+    })
+}
