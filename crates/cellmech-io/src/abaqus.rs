@@ -707,7 +707,9 @@ BODY, 20
 
     #[test]
     fn reads_the_sphere_compression_reference_deck() {
-        let path = Path::new("/work/shared/reference/sphere_compression/problem.inp");
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/reference/sphere_compression/problem.inp");
+        let path = path.as_path();
         if !path.exists() {
             eprintln!("skipped: {} is absent", path.display());
             return;

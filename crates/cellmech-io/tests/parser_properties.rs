@@ -38,7 +38,9 @@ const ABAQUS_SEEDS: &[&str] = &[include_str!("data/sets_deck.inp")];
 
 /// The CalculiX reference deck of shared/ (3000 lines), when this machine has it.
 fn reference_deck() -> Option<String> {
-    std::fs::read_to_string("/work/shared/reference/sphere_compression/problem.inp").ok()
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/reference/sphere_compression/problem.inp");
+    std::fs::read_to_string(path).ok()
 }
 
 /// An error must name the input.
