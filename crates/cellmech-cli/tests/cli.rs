@@ -251,7 +251,12 @@ fn bench_analyses_short_mode_reports_the_cost_and_compares_with_a_baseline() {
     let dir = scratch("bench");
     let base = dir.join("base.json");
     let o = cellmech(&[
-        "bench", "--analyses", "plates", "--coarse", "--json", "--save",
+        "bench",
+        "--analyses",
+        "plates",
+        "--coarse",
+        "--json",
+        "--save",
         base.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -260,15 +265,37 @@ fn bench_analyses_short_mode_reports_the_cost_and_compares_with_a_baseline() {
     let iterations = plates["iterations"].as_u64().unwrap();
     let factorizations = plates["factorizations"].as_u64().unwrap();
     assert!(iterations > 0 && factorizations > 0, "{plates}");
-    let split: f64 = ["assembly_s", "residual_only_s", "factorization_s", "solve_s", "other_s"]
-        .iter()
-        .map(|k| plates[k].as_f64().unwrap())
-        .sum();
-    assert!((split - plates["wall_s"].as_f64().unwrap()).abs() < 1e-9, "{plates}");
+    let split: f64 = [
+        "assembly_s",
+        "residual_only_s",
+        "factorization_s",
+        "solve_s",
+        "other_s",
+    ]
+    .iter()
+    .map(|k| plates[k].as_f64().unwrap())
+    .sum();
+    assert!(
+        (split - plates["wall_s"].as_f64().unwrap()).abs() < 1e-9,
+        "{plates}"
+    );
     // The plate-compression example's force at 30 % (tests/tools.rs checks it against FEBio).
-    assert!((plates["result"].as_f64().unwrap() - 52.40).abs() < 0.05, "{plates}");
-    let o = cellmech(&["bench", "--analyses", "plates", "--coarse", "--baseline", base.to_str().unwrap()]);
+    assert!(
+        (plates["result"].as_f64().unwrap() - 52.40).abs() < 0.05,
+        "{plates}"
+    );
+    let o = cellmech(&[
+        "bench",
+        "--analyses",
+        "plates",
+        "--coarse",
+        "--baseline",
+        base.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("vs baseline") && text.contains("iterations x1.000"), "{text}");
+    assert!(
+        text.contains("vs baseline") && text.contains("iterations x1.000"),
+        "{text}"
+    );
 }

@@ -30,4 +30,3 @@ pub struct CellStudy {
     /// The experiment's plan (typed handles to its tools and steps), when there is one.
     pub protocol: Option<crate::protocol::ProtocolPlan>,
 }
-

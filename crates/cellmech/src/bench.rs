@@ -189,9 +189,21 @@ fn write_tangent(problem: &Problem, pattern: &SparsityPattern, path: &Path) -> R
 /// Whole analyses timed by `cellmech bench --analyses`: name, shipped example, and what it
 /// stands for.
 pub const ANALYSES: [(&str, &str, &str); 3] = [
-    ("suspended-tension", "suspended-tension", "the default cell test: tension to 6.3 um"),
-    ("suspended-compression", "suspended-compression", "cell compression to 50 %"),
-    ("plates", "plate-compression", "neo-Hookean sphere between frictionless plates"),
+    (
+        "suspended-tension",
+        "suspended-tension",
+        "the default cell test: tension to 6.3 um",
+    ),
+    (
+        "suspended-compression",
+        "suspended-compression",
+        "cell compression to 50 %",
+    ),
+    (
+        "plates",
+        "plate-compression",
+        "neo-Hookean sphere between frictionless plates",
+    ),
 ];
 
 /// The cost of one whole analysis.
@@ -281,7 +293,15 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
         steps: summary
             .steps
             .iter()
-            .map(|s| (s.name.clone(), s.increments, s.iterations, s.cutbacks, s.wall_time_s))
+            .map(|s| {
+                (
+                    s.name.clone(),
+                    s.increments,
+                    s.iterations,
+                    s.cutbacks,
+                    s.wall_time_s,
+                )
+            })
             .collect(),
         result,
     })

@@ -21,12 +21,12 @@ use std::path::Path;
 
 use cellmech_fem::solve::{NullObserver, Observer};
 
+use crate::analysis::{Analysis, CellStudy};
 use crate::cell::suspended::{CellModelError, SuspendedCell};
 use crate::cell::BuiltCell;
 use crate::model::OutputSpec;
 use crate::protocol::results::ProtocolResults;
 use crate::protocol::{Protocol, ProtocolError};
-use crate::analysis::{Analysis, CellStudy};
 use crate::run::{RunError, RunSummary};
 
 /// The cell models.
@@ -168,7 +168,11 @@ pub fn parameters_markdown() -> String {
         } else {
             format!("`[{}]` (`{}`)", table.section, table.name)
         };
-        s.push_str(&format!("\n## {}\n\n{scope}\n\n{}", table.name, table.markdown()));
+        s.push_str(&format!(
+            "\n## {}\n\n{scope}\n\n{}",
+            table.name,
+            table.markdown()
+        ));
     }
     s
 }

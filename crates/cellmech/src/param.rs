@@ -101,8 +101,16 @@ impl Bounds {
         };
         match (self.min.is_finite(), self.max.is_finite()) {
             (false, false) => "any".into(),
-            (true, false) => format!("{} {}", if self.min_inclusive { "≥" } else { ">" }, show(self.min)),
-            (false, true) => format!("{} {}", if self.max_inclusive { "≤" } else { "<" }, show(self.max)),
+            (true, false) => format!(
+                "{} {}",
+                if self.min_inclusive { "≥" } else { ">" },
+                show(self.min)
+            ),
+            (false, true) => format!(
+                "{} {}",
+                if self.max_inclusive { "≤" } else { "<" },
+                show(self.max)
+            ),
             (true, true) => format!(
                 "{}{}, {}{}",
                 if self.min_inclusive { "[" } else { "(" },
@@ -294,12 +302,20 @@ fn check_value(def: &ParamDef, value: &ParamValue) -> Result<(), String> {
             if def.bounds.contains(*x) {
                 Ok(())
             } else {
-                Err(format!("expected a value {}; found {}", range(), show(*x, dim)))
+                Err(format!(
+                    "expected a value {}; found {}",
+                    range(),
+                    show(*x, dim)
+                ))
             }
         }
         (ParamKind::QuantityList(_), ParamValue::List(xs)) => {
             match xs.iter().find(|x| !def.bounds.contains(**x)) {
-                Some(x) => Err(format!("expected values {}; found {}", range(), show(*x, dim))),
+                Some(x) => Err(format!(
+                    "expected values {}; found {}",
+                    range(),
+                    show(*x, dim)
+                )),
                 None => Ok(()),
             }
         }
@@ -321,7 +337,9 @@ fn check_value(def: &ParamDef, value: &ParamValue) -> Result<(), String> {
             if v.iter().all(|c| c.is_finite()) && v.iter().any(|c| *c != 0.0) {
                 Ok(())
             } else {
-                Err(format!("expected three finite numbers, not all zero; found {v:?}"))
+                Err(format!(
+                    "expected three finite numbers, not all zero; found {v:?}"
+                ))
             }
         }
         (ParamKind::Seed, ParamValue::Seed(_)) => Ok(()),
@@ -428,7 +446,10 @@ pub fn read_section(
         return Err(ParamError {
             key: section_key.into(),
             span: Some(section.span()),
-            message: format!("expected a table [{section_key}]; found a {}", section.get_ref().type_str()),
+            message: format!(
+                "expected a table [{section_key}]; found a {}",
+                section.get_ref().type_str()
+            ),
         });
     };
     let mut leaves = Vec::new();
@@ -512,7 +533,9 @@ fn convert(def: &ParamDef, v: &DeValue<'_>) -> Result<ParamValue, String> {
             DeValue::String(s) => parse_quantity(s, d)
                 .map(ParamValue::Number)
                 .map_err(|e| e.to_string()),
-            _ if d == Dimension::Dimensionless => number_of(v).map(ParamValue::Number).ok_or_else(wrong),
+            _ if d == Dimension::Dimensionless => {
+                number_of(v).map(ParamValue::Number).ok_or_else(wrong)
+            }
             _ => Err(wrong()),
         },
         ParamKind::QuantityList(d) => {
@@ -555,7 +578,10 @@ fn convert(def: &ParamDef, v: &DeValue<'_>) -> Result<ParamValue, String> {
             let DeValue::Array(items) = v else {
                 return Err(wrong());
             };
-            let xs: Vec<f64> = items.iter().filter_map(|i| number_of(i.get_ref())).collect();
+            let xs: Vec<f64> = items
+                .iter()
+                .filter_map(|i| number_of(i.get_ref()))
+                .collect();
             match <[f64; 3]>::try_from(xs) {
                 Ok(a) if items.len() == 3 => Ok(ParamValue::Vector3(a)),
                 _ => Err(wrong()),
@@ -585,7 +611,10 @@ impl ParamTable {
                 ParamDefault::Number(x) => format!("`{}`", toml_number(x, dim)),
                 ParamDefault::List(xs) => format!(
                     "`[{}]`",
-                    xs.iter().map(|x| toml_number(*x, dim)).collect::<Vec<_>>().join(", ")
+                    xs.iter()
+                        .map(|x| toml_number(*x, dim))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
                 ParamDefault::Count(n) => format!("`{n}`"),
                 ParamDefault::Word(w) => format!("`\"{w}\"`"),
@@ -622,7 +651,10 @@ impl ParamTable {
                 ParamDefault::Number(x) => toml_number(x, dim),
                 ParamDefault::List(xs) => format!(
                     "[{}]",
-                    xs.iter().map(|x| toml_number(*x, dim)).collect::<Vec<_>>().join(", ")
+                    xs.iter()
+                        .map(|x| toml_number(*x, dim))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
                 ParamDefault::Count(n) => n.to_string(),
                 ParamDefault::Word(w) => format!("\"{w}\""),
@@ -659,8 +691,15 @@ mod tests {
 
     #[test]
     fn suggestion_finds_typos_and_rejects_strangers() {
-        let keys = ["cytoplasm.shear_modulus", "cell_diameter", "nucleus_diameter"];
-        assert_eq!(suggestion(keys, "cytoplasm.shear_modulos"), Some("cytoplasm.shear_modulus"));
+        let keys = [
+            "cytoplasm.shear_modulus",
+            "cell_diameter",
+            "nucleus_diameter",
+        ];
+        assert_eq!(
+            suggestion(keys, "cytoplasm.shear_modulos"),
+            Some("cytoplasm.shear_modulus")
+        );
         assert_eq!(suggestion(keys, "cell_diametre"), Some("cell_diameter"));
         assert_eq!(suggestion(keys, "colour"), None);
     }

@@ -4,8 +4,8 @@ use std::path::Path;
 
 use cellmech_io::{plot_xy, PlotSpec, Series, SeriesStyle};
 
-use crate::output::OutputWriter;
 use crate::analysis::Analysis as Scenario;
+use crate::output::OutputWriter;
 
 /// Draws the force–displacement curve of every requested curve (one file per curve), and
 /// of every rigid tool (force along its motion vs its displacement), and returns the file

@@ -152,7 +152,9 @@ pub fn run(
     let deformed: Vec<[f64; 3]> = {
         let (p, map) = (&model.problem, model.problem.dof_map());
         (0..scenario.model.mesh.num_nodes())
-            .map(|n| std::array::from_fn(|c| scenario.model.mesh.nodes[n][c] + p.u()[map.dof(n, c)]))
+            .map(|n| {
+                std::array::from_fn(|c| scenario.model.mesh.nodes[n][c] + p.u()[map.dof(n, c)])
+            })
             .collect()
     };
     let picture = format!("deformed.{}", scenario.model.output.plot_format.extension());

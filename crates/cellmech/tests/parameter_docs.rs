@@ -88,7 +88,12 @@ fn every_default_is_within_its_declared_range_and_keys_are_unique() {
                     .set(table, p.key, v.clone())
                     .unwrap_or_else(|e| panic!("{}: default of {}: {e}", table.name, p.key));
             }
-            assert!(!p.doc.is_empty() && !p.source.is_empty(), "{}: {} undocumented", table.name, p.key);
+            assert!(
+                !p.doc.is_empty() && !p.source.is_empty(),
+                "{}: {} undocumented",
+                table.name,
+                p.key
+            );
             if let ParamKind::Choice(words) = p.kind {
                 assert!(!words.is_empty());
             }
@@ -114,14 +119,31 @@ fn the_declared_defaults_are_the_library_defaults() {
 fn unknown_keys_get_a_suggestion_and_misplaced_protocol_keys_are_named() {
     let base = std::path::Path::new(".");
     let typo = "[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n[cell.cytoplasm]\nshear_modulos = \"0.2 kPa\"\n[protocol]\nkind = \"prestress\"\n";
-    let e = cellmech::scenario::parse(typo, "typo.toml", base).unwrap_err().to_string();
-    assert!(e.contains("typo.toml:6") && e.contains("cell.cytoplasm.shear_modulos") && e.contains("did you mean `cytoplasm.shear_modulus`"), "{e}");
+    let e = cellmech::scenario::parse(typo, "typo.toml", base)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("typo.toml:6")
+            && e.contains("cell.cytoplasm.shear_modulos")
+            && e.contains("did you mean `cytoplasm.shear_modulus`"),
+        "{e}"
+    );
     let wrong_unit = "[cell]\ncell_diameter = \"30 kPa\"\n[protocol]\nkind = \"prestress\"\n";
-    let e = cellmech::scenario::parse(wrong_unit, "unit.toml", base).unwrap_err().to_string();
-    assert!(e.contains("unit.toml:2") && e.contains("cell.cell_diameter") && e.contains("length"), "{e}");
+    let e = cellmech::scenario::parse(wrong_unit, "unit.toml", base)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unit.toml:2") && e.contains("cell.cell_diameter") && e.contains("length"),
+        "{e}"
+    );
     let misplaced = "[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n[protocol]\nkind = \"microplate-compression\"\npinch = \"1 um\"\n";
-    let e = cellmech::scenario::parse(misplaced, "m.toml", base).unwrap_err().to_string();
-    assert!(e.contains("does not apply") && e.contains("micropipette-tension"), "{e}");
+    let e = cellmech::scenario::parse(misplaced, "m.toml", base)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("does not apply") && e.contains("micropipette-tension"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -130,7 +152,10 @@ fn unknown_keys_of_the_generic_sections_get_a_suggestion_too() {
     let e = cellmech::scenario::parse(text, "mesh.toml", std::path::Path::new("."))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("line 3") && e.contains("did you mean `radius`"), "{e}");
+    assert!(
+        e.contains("line 3") && e.contains("did you mean `radius`"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -149,7 +174,12 @@ fn shipped_cell_examples_show_the_declared_defaults() {
             .unwrap_or_else(|e| panic!("{}: {e:?}", example.name));
         let defaults = ParamValues::defaults(table);
         for key in given.spans.keys() {
-            assert_eq!(given.values.get(key), defaults.values.get(key), "{}: [cell] {key}", example.name);
+            assert_eq!(
+                given.values.get(key),
+                defaults.values.get(key),
+                "{}: [cell] {key}",
+                example.name
+            );
         }
         let kind = match root.get("protocol").map(|p| p.get_ref()) {
             Some(toml::de::DeValue::Table(t)) => t
@@ -164,7 +194,12 @@ fn shipped_cell_examples_show_the_declared_defaults() {
             .unwrap_or_else(|e| panic!("{}: {e:?}", example.name));
         let defaults = ParamValues::defaults(table);
         for key in given.spans.keys() {
-            assert_eq!(given.values.get(key), defaults.values.get(key), "{}: [protocol] {key}", example.name);
+            assert_eq!(
+                given.values.get(key),
+                defaults.values.get(key),
+                "{}: [protocol] {key}",
+                example.name
+            );
         }
     }
 }

@@ -139,7 +139,10 @@ fn cable_ea() -> f64 {
 
 fn prestressed_sphere(families: &str) -> (Scenario, Vec<[usize; 2]>) {
     let base = scenario(&format!("{SPHERE}{SUPPORTS}"));
-    let (points, pairs) = icosahedron_points(&base.model.mesh.nodes, &base.model.mesh.node_sets["surface"]);
+    let (points, pairs) = icosahedron_points(
+        &base.model.mesh.nodes,
+        &base.model.mesh.node_sets["surface"],
+    );
     let text = format!(
         r#"{SPHERE}
 [[filament]]
@@ -161,7 +164,11 @@ tension_only = true
 fn structures_prestressed_sphere_finds_its_self_equilibrium_with_unloaded_supports() {
     let (s, pairs) = prestressed_sphere("");
     for set in ["a", "b", "c"] {
-        assert_eq!(s.model.mesh.node_sets[set].len(), 1, "support {set} is one node");
+        assert_eq!(
+            s.model.mesh.node_sets[set].len(),
+            1,
+            "support {set} is one node"
+        );
     }
     assert_eq!(
         s.model.structures.filaments[0].pairs, pairs,

@@ -68,8 +68,12 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading the baseline {}", path.display()))?;
-            serde_json::from_str(&text)
-                .with_context(|| format!("{}: expected a JSON list of analysis figures", path.display()))?
+            serde_json::from_str(&text).with_context(|| {
+                format!(
+                    "{}: expected a JSON list of analysis figures",
+                    path.display()
+                )
+            })?
         }
         None => Vec::new(),
     };
@@ -87,7 +91,10 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
             for (step, increments, iterations, cutbacks, wall) in &r.steps {
                 println!("    {step:<14} {increments:>4} increments {iterations:>5} iterations {cutbacks:>3} cutbacks {wall:>8.2} s");
             }
-            if let Some(b) = baseline.iter().find(|b| b.name == r.name && b.coarse == r.coarse) {
+            if let Some(b) = baseline
+                .iter()
+                .find(|b| b.name == r.name && b.coarse == r.coarse)
+            {
                 println!(
                     "    vs baseline: wall x{:.3}, iterations x{:.3}, factorisations x{:.3}, factorisation time x{:.3}, result {:+.2e} relative",
                     r.wall_s / b.wall_s,

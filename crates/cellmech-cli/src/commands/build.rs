@@ -32,8 +32,8 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
         },
         &args.out,
     )
-        .map_err(anyhow::Error::msg)
-        .with_context(|| format!("writing the model into {}", args.out.display()))?;
+    .map_err(anyhow::Error::msg)
+    .with_context(|| format!("writing the model into {}", args.out.display()))?;
     let paths: Vec<String> = files
         .iter()
         .map(|f| args.out.join(f).display().to_string())

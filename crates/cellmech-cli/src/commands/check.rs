@@ -12,7 +12,8 @@ pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
     cellmech::model::build(&scenario.model)
         .with_context(|| format!("building the model of {}", scenario.origin))?;
     let blocks: Vec<_> = scenario
-        .model.mesh
+        .model
+        .mesh
         .blocks
         .iter()
         .map(|b| (b.name.clone(), b.len()))
@@ -37,7 +38,12 @@ pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
         for (name, n) in &blocks {
             println!("  element set {name}: {n} elements");
         }
-        let steps: Vec<&str> = scenario.model.steps.iter().map(|s| s.name.as_str()).collect();
+        let steps: Vec<&str> = scenario
+            .model
+            .steps
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect();
         println!("  steps: {}", steps.join(", "));
     }
     Ok(ExitCode::SUCCESS)

@@ -8,7 +8,12 @@ pub fn params(args: &ParamsArgs) -> anyhow::Result<ExitCode> {
     let tables = cellmech::experiment::parameter_tables();
     let Some(name) = &args.name else {
         for t in &tables {
-            println!("{:<26} [{}] {} parameters", t.name, t.section, t.params.len());
+            println!(
+                "{:<26} [{}] {} parameters",
+                t.name,
+                t.section,
+                t.params.len()
+            );
         }
         return Ok(ExitCode::SUCCESS);
     };
@@ -17,7 +22,10 @@ pub fn params(args: &ParamsArgs) -> anyhow::Result<ExitCode> {
         let hint = cellmech::param::suggestion(names.iter().copied(), name)
             .map(|s| format!(" (did you mean \"{s}\"?)"))
             .unwrap_or_default();
-        anyhow::anyhow!("no parameter table named \"{name}\"{hint}; available: {}", names.join(", "))
+        anyhow::anyhow!(
+            "no parameter table named \"{name}\"{hint}; available: {}",
+            names.join(", ")
+        )
     })?;
     if args.json {
         let rows: Vec<_> = table

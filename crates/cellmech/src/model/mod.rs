@@ -9,18 +9,18 @@ pub mod structures;
 pub mod tools;
 
 pub use spec::{
-    CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec, StepSpec,
+    CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec,
+    StepSpec,
 };
 
 use cellmech_fem::constraint::embed::embed_translations;
 use cellmech_fem::constraint::LinearConstraints;
 use cellmech_fem::continuum::ContinuumBlock;
-use cellmech_fem::mesh::locate::HostLocator;
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::linsolve::FaerSparseSolver;
+use cellmech_fem::mesh::locate::HostLocator;
 use cellmech_fem::solve::{Motion, NodalLoad, Problem, SolveError, Step};
 use cellmech_fem::term::Term;
-
 
 /// A curve request turned into DOFs.
 #[derive(Debug, Clone, PartialEq)]
@@ -250,7 +250,9 @@ fn embed(
             spec.tolerance,
         )
         .map_err(|e| fail(e.to_string()))?;
-        report.require_all_hosted().map_err(|e| fail(e.to_string()))?;
+        report
+            .require_all_hosted()
+            .map_err(|e| fail(e.to_string()))?;
         summaries.push(EmbedSummary {
             name: spec.name.clone(),
             embedded_nodes: report.embedded.len(),

@@ -113,11 +113,7 @@ fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
 
 /// The default penalty of a tool on `nodes`: [`PENALTY_FACTOR`] × the largest shear
 /// modulus × the mean spacing of the contact nodes (0 when no material has a modulus).
-pub fn default_penalty(
-    materials: &[MaterialAssignment],
-    mesh: &Mesh,
-    nodes: &[usize],
-) -> f64 {
+pub fn default_penalty(materials: &[MaterialAssignment], mesh: &Mesh, nodes: &[usize]) -> f64 {
     PENALTY_FACTOR * largest_shear_modulus(materials) * mean_spacing(mesh, nodes)
 }
 
@@ -188,7 +184,10 @@ pub fn stop_condition(spec: &StepSpec) -> Option<StopCondition> {
                 scalar_name(&m.tool, ToolScalar::Force(*c)),
                 target.value * m.movement[*c].signum(),
             ),
-            _ => (scalar_name(&m.tool, ToolScalar::ForceAlongMotion), target.value),
+            _ => (
+                scalar_name(&m.tool, ToolScalar::ForceAlongMotion),
+                target.value,
+            ),
         };
         Some(StopCondition {
             monitor: Monitor::TermScalar(monitor),

@@ -11,8 +11,8 @@ use cellmech_fem::mesh::surface::boundary_quads;
 use cellmech_io::{plot_model_picture, Field, LineGroup, ModelPicture, PvdSeries, View3d};
 use serde::Serialize;
 
-use crate::model::BuiltModel;
 use crate::model::structures::FilamentElement;
+use crate::model::BuiltModel;
 use crate::model::ModelSpec;
 
 /// Colours of well-known families (others cycle through a palette).
@@ -37,11 +37,7 @@ pub fn model_picture(model: &ModelSpec, title: &str) -> ModelPicture {
 }
 
 /// The same picture with the nodes at `positions` (e.g. the deformed configuration).
-pub fn model_picture_at(
-    model: &ModelSpec,
-    positions: &[[f64; 3]],
-    title: String,
-) -> ModelPicture {
+pub fn model_picture_at(model: &ModelSpec, positions: &[[f64; 3]], title: String) -> ModelPicture {
     let mesh = &model.mesh;
     let x = |n: usize| positions[n];
     let mut groups = Vec::new();
@@ -155,7 +151,8 @@ pub fn write_model(
         .collect();
     crate::output::write_frame(&mut pvd, 0.0, &model.problem, &spec.mesh.nodes, sets)?;
     let picture = format!("model.{}", about.plot_format.extension());
-    plot_model_picture(&dir.join(&picture), &model_picture(spec, about.title)).map_err(|e| e.to_string())?;
+    plot_model_picture(&dir.join(&picture), &model_picture(spec, about.title))
+        .map_err(|e| e.to_string())?;
     let p = &model.problem;
     let description = ModelDescription {
         title: about.title,

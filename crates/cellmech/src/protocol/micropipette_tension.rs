@@ -106,8 +106,11 @@ impl MicropipetteTension {
                 radius: self.pipette_radius,
             }
         };
-        let [fixed, moving] =
-            place_pole_tools(cell, ["fixed_pipette", "moving_pipette"], [disk(-1.0), disk(1.0)]);
+        let [fixed, moving] = place_pole_tools(
+            cell,
+            ["fixed_pipette", "moving_pipette"],
+            [disk(-1.0), disk(1.0)],
+        );
         let loading = StepControl {
             initial_increment: self.max_increment.min(0.1),
             max_increment: self.max_increment,

@@ -14,9 +14,30 @@ pub const MICROPLATE_COMPRESSION: ParamTable = ParamTable {
     name: "microplate-compression",
     section: "protocol",
     params: &[
-        ParamDef { key: "deformations", kind: K::QuantityList(Dimensionless), default: D::List(&[0.1, 0.3, 0.5]), bounds: Bounds::new(0.0, false, 0.9, false), doc: "deformations of the diameter at which to report, increasing", source: "spec" },
-        ParamDef { key: "contact_force", kind: K::Quantity(Force), default: D::Number(0.1), bounds: Bounds::POSITIVE, doc: "force on the moving plate that counts as touching in the approach", source: "choice" },
-        ParamDef { key: "max_increment", kind: K::Number, default: D::Number(0.1), bounds: Bounds::new(0.0, false, 1.0, true), doc: "largest increment of the loading steps, fraction of the step", source: "choice" },
+        ParamDef {
+            key: "deformations",
+            kind: K::QuantityList(Dimensionless),
+            default: D::List(&[0.1, 0.3, 0.5]),
+            bounds: Bounds::new(0.0, false, 0.9, false),
+            doc: "deformations of the diameter at which to report, increasing",
+            source: "spec",
+        },
+        ParamDef {
+            key: "contact_force",
+            kind: K::Quantity(Force),
+            default: D::Number(0.1),
+            bounds: Bounds::POSITIVE,
+            doc: "force on the moving plate that counts as touching in the approach",
+            source: "choice",
+        },
+        ParamDef {
+            key: "max_increment",
+            kind: K::Number,
+            default: D::Number(0.1),
+            bounds: Bounds::new(0.0, false, 1.0, true),
+            doc: "largest increment of the loading steps, fraction of the step",
+            source: "choice",
+        },
     ],
 };
 
@@ -72,8 +93,11 @@ impl MicroplateCompression {
             normal[axis] = -side;
             ToolShape::Plate { point, normal }
         };
-        let [fixed, moving] =
-            place_pole_tools(cell, ["bottom_plate", "top_plate"], [plate(-1.0), plate(1.0)]);
+        let [fixed, moving] = place_pole_tools(
+            cell,
+            ["bottom_plate", "top_plate"],
+            [plate(-1.0), plate(1.0)],
+        );
         let loading = StepControl {
             initial_increment: self.max_increment.min(0.1),
             max_increment: self.max_increment,

@@ -30,7 +30,11 @@ pub enum Protocol {
 }
 
 /// The `kind` names of the protocols, in documentation order.
-pub const KINDS: [&str; 3] = ["micropipette-tension", "microplate-compression", "prestress"];
+pub const KINDS: [&str; 3] = [
+    "micropipette-tension",
+    "microplate-compression",
+    "prestress",
+];
 
 /// The parameter table of each protocol that has parameters.
 pub const TABLES: [&ParamTable; 2] = [
@@ -113,7 +117,10 @@ pub struct ToolHandle {
 impl ToolHandle {
     /// The `curve.csv` column of the force the tool exerts on the body along `axis`.
     pub fn force_column(&self, axis: usize) -> String {
-        cellmech_fem::contact::scalar_name(&self.name, cellmech_fem::contact::ToolScalar::Force(axis))
+        cellmech_fem::contact::scalar_name(
+            &self.name,
+            cellmech_fem::contact::ToolScalar::Force(axis),
+        )
     }
 
     /// The `curve.csv` column of the tool's displacement along `axis`.
@@ -165,7 +172,11 @@ pub(crate) fn place_pole_tools(
     let axis = cell.description.axis;
     let r = 0.5 * cell.description.cell_diameter;
     let mesh = &mut cell.model.mesh;
-    let surface = mesh.node_sets.get(&cell.surface_set).cloned().unwrap_or_default();
+    let surface = mesh
+        .node_sets
+        .get(&cell.surface_set)
+        .cloned()
+        .unwrap_or_default();
     for (name, side) in [("pole_minus", -1.0), ("pole_plus", 1.0)] {
         let nodes: Vec<usize> = surface
             .iter()

@@ -10,9 +10,9 @@ use std::path::Path;
 use cellmech_io::{plot_xy, CurveWriter, PlotSpec, Series, SeriesStyle};
 use serde::Serialize;
 
-use crate::output::OutputWriter;
 use super::ProtocolPlan;
 use crate::cell::CellDescription;
+use crate::output::OutputWriter;
 
 /// One row of the test curve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

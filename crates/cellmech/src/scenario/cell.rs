@@ -45,19 +45,28 @@ fn word<'a>(
 }
 
 /// Builds the cell of `[cell]` (before `[families]` and `[protocol]`).
-pub(super) fn resolve_cell(ctx: &Ctx, section_span: std::ops::Range<usize>) -> Result<BuiltCell, ScenarioError> {
+pub(super) fn resolve_cell(
+    ctx: &Ctx,
+    section_span: std::ops::Range<usize>,
+) -> Result<BuiltCell, ScenarioError> {
     let root = root(ctx)?;
     if let Some((v, model)) = word(root.get_ref(), "cell", "model") {
         if model != Some("suspended") {
             return Err(ctx.invalid(
                 Some(v.span()),
                 "cell.model",
-                format!("expected \"suspended\"; found {}", v.get_ref().as_str().map_or_else(|| v.get_ref().type_str().to_string(), |s| format!("\"{s}\""))),
+                format!(
+                    "expected \"suspended\"; found {}",
+                    v.get_ref().as_str().map_or_else(
+                        || v.get_ref().type_str().to_string(),
+                        |s| format!("\"{s}\"")
+                    )
+                ),
             ));
         }
     }
-    let values =
-        read_section(root.get_ref(), &SUSPENDED_CELL, &["model"], &[]).map_err(|e| param_error(ctx, e))?;
+    let values = read_section(root.get_ref(), &SUSPENDED_CELL, &["model"], &[])
+        .map_err(|e| param_error(ctx, e))?;
     SuspendedCell::from_values(&values)
         .build()
         .map_err(|e| ctx.invalid(Some(section_span), "cell", e.to_string()))
@@ -77,7 +86,11 @@ pub(super) fn resolve_protocol(
             return Err(ctx.invalid(
                 Some(v.span()),
                 "protocol.kind",
-                format!("expected one of \"{}\"; found a {}", KINDS.join("\", \""), v.get_ref().type_str()),
+                format!(
+                    "expected one of \"{}\"; found a {}",
+                    KINDS.join("\", \""),
+                    v.get_ref().type_str()
+                ),
             ))
         }
         None => {
@@ -95,8 +108,8 @@ pub(super) fn resolve_protocol(
             format!("expected \"{}\"; found \"{kind}\"", KINDS.join("\", \"")),
         ));
     };
-    let values = read_section(root.get_ref(), table, &["kind"], &TABLES)
-        .map_err(|e| param_error(ctx, e))?;
+    let values =
+        read_section(root.get_ref(), table, &["kind"], &TABLES).map_err(|e| param_error(ctx, e))?;
     let protocol = Protocol::from_values(&kind, &values).expect("the kind has a table");
     protocol.apply(cell).map_err(|e| {
         let key = e.key;

@@ -7,12 +7,12 @@ use cellmech_fem::mesh::Mesh;
 use toml::Spanned;
 
 use super::context::Ctx;
+use super::file::{StepToolSection, ToolSection};
 use super::{MaterialAssignment, ScenarioError};
 pub use crate::model::tools::{
     default_penalty, default_tolerance, largest_shear_modulus, mesh_diagonal, tool_program,
     ForceTarget, ToolMotion, ToolSpec, FORCE_TOLERANCE_FACTOR, PENALTY_FACTOR, TOLERANCE_FACTOR,
 };
-use super::file::{StepToolSection, ToolSection};
 use crate::units::Length;
 
 /// Resolves the `[[tool]]` sections against the mesh and materials.

@@ -27,8 +27,10 @@
 use cellmech_fem::mesh::generate::SplitMix64;
 use cellmech_fem::mesh::Mesh;
 
-use crate::cell::vec3::{add, any_perpendicular, cross, distance, dot, norm, normalize, scale, sub, V3};
 use super::CellGeometryError;
+use crate::cell::vec3::{
+    add, any_perpendicular, cross, distance, dot, norm, normalize, scale, sub, V3,
+};
 
 /// Mixed into the seed for the MT stream, so MT bows do not depend on the orientation
 /// search's consumption of random numbers.

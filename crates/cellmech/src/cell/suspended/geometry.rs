@@ -13,11 +13,11 @@ use cellmech_fem::mesh::generate::quality::{
 use cellmech_fem::mesh::generate::{boundary_faces, SplitMix64};
 use cellmech_fem::mesh::{ElementKind, Mesh};
 
+use super::CellGeometryError;
 use crate::cell::vec3::{
     angle, apply, compose, cross, distance, normalize, quaternion_matrix, rotate_about, scale,
     IDENTITY, M3, V3,
 };
-use super::CellGeometryError;
 
 /// The golden ratio φ = (1 + √5)/2.
 pub const GOLDEN_RATIO: f64 = 1.618_033_988_749_895;

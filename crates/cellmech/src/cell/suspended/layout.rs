@@ -8,15 +8,11 @@
 //! (IFs) from each FA tangential to the nucleus. It is pure geometry: materials,
 //! prestrain and solving belong to the model builder. See `docs/suspended-cell-geometry.md`.
 
-
 use cellmech_fem::mesh::generate::{sphere_mesh, GenerateError, SphereMeshSpec};
 use cellmech_fem::mesh::Mesh;
 
 use super::cytoskeleton::{self, IfAnchorRule, MicrotubulePath};
-use super::geometry::{self,
-    icosidodecahedron_edges, FaOrientation,
-    GOLDEN_RATIO,
-};
+use super::geometry::{self, icosidodecahedron_edges, FaOrientation, GOLDEN_RATIO};
 
 use crate::cell::vec3::{angle, norm, normalize, scale, sub, M3, V3};
 
@@ -545,4 +541,3 @@ fn max_tangency_error_deg(mesh: &Mesh, ifs: &[[usize; 2]]) -> f64 {
         .map(|&[f, a]| (if_radius_angle_deg(mesh.nodes[f], mesh.nodes[a]) - 90.0).abs())
         .fold(0.0, f64::max)
 }
-

@@ -383,7 +383,9 @@ pub struct SuspendedCell {
 impl Default for SuspendedCell {
     /// The published model with the spec's values.
     fn default() -> Self {
-        Self::from_values(&crate::param::ParamValues::defaults(&params::SUSPENDED_CELL))
+        Self::from_values(&crate::param::ParamValues::defaults(
+            &params::SUSPENDED_CELL,
+        ))
     }
 }
 

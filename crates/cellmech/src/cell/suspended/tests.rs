@@ -6,8 +6,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use cellmech_fem::mesh::generate::hex8_quality;
 
 use super::cytoskeleton::{polyline_distance_to_origin, segment_distance_to_origin};
-use crate::cell::vec3::{distance, dot, norm, sub};
 use super::*;
+use crate::cell::vec3::{distance, dot, norm, sub};
 
 const R: f64 = 16.132;
 const R_N: f64 = 6.45;
