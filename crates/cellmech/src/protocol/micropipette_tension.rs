@@ -3,12 +3,11 @@
 //! state) → stretch by `elongation` along the test axis. Bonded contact on the poles.
 
 use cellmech_fem::contact::ToolShape;
-use cellmech_fem::solve::StepControl;
 
-use super::{axial_motion, loading_step, place_pole_tools, ProtocolError, ProtocolPlan};
+use super::{PoleTest, ProtocolError, ProtocolPlan};
 use crate::cell::BuiltCell;
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
-use crate::units::Dimension::{Force, Length};
+use crate::units::Dimension::Length;
 
 /// Largest end elongation accepted, as a multiple of the cell diameter: beyond it the
 /// pipettes would pull the cell into a thread the model does not describe.
@@ -22,8 +21,8 @@ pub const MICROPIPETTE_TENSION: ParamTable = ParamTable {
         ParamDef { key: "pipette_radius", kind: K::Quantity(Length), default: D::Number(4.0), bounds: Bounds::POSITIVE, doc: "radius of the pipettes' contact disks (below the cell radius)", source: "choice: a holding pipette of 8 µm bore, a quarter of D" },
         ParamDef { key: "pinch", kind: K::Quantity(Length), default: D::Number(1.0), bounds: Bounds::POSITIVE, doc: "how far the pipettes press the cell together after touching (below D/4)", source: "choice: \"slightly compressing\" (3 % of D)" },
         ParamDef { key: "elongation", kind: K::Quantity(Length), default: D::Number(6.3), bounds: Bounds::POSITIVE, doc: "end elongation from the unloaded reference state (up to 1.5 D; `\"32 um\"` ≈ 100 %)", source: "spec (≈ 20 %)" },
-        ParamDef { key: "contact_force", kind: K::Quantity(Force), default: D::Number(0.1), bounds: Bounds::POSITIVE, doc: "force on the moving tool that counts as touching in the approach", source: "choice (0.2 % of the force at 6.3 µm)" },
-        ParamDef { key: "max_increment", kind: K::Number, default: D::Number(0.1), bounds: Bounds::new(0.0, false, 1.0, true), doc: "largest increment of the loading steps, fraction of the step", source: "choice (a curve point every 10 %)" },
+        super::CONTACT_FORCE,
+        super::MAX_INCREMENT,
     ],
 };
 
@@ -65,7 +64,6 @@ impl MicropipetteTension {
     pub(super) fn apply(&self, cell: &mut BuiltCell) -> Result<ProtocolPlan, ProtocolError> {
         let d = cell.description.cell_diameter;
         let r = 0.5 * d;
-        let axis = cell.description.axis;
         if self.pipette_radius >= r {
             return Err(ProtocolError {
                 key: "pipette_radius",
@@ -95,69 +93,44 @@ impl MicropipetteTension {
                 ),
             });
         }
-        let disk = |side: f64| {
-            let mut center = [0.0; 3];
-            center[axis] = side * r;
-            let mut normal = [0.0; 3];
-            normal[axis] = -side;
-            ToolShape::Disk {
-                center,
-                normal,
-                radius: self.pipette_radius,
-            }
-        };
-        let [fixed, moving] = place_pole_tools(
+        let radius = self.pipette_radius;
+        let test = PoleTest::approach(
             cell,
             ["fixed_pipette", "moving_pipette"],
-            [disk(-1.0), disk(1.0)],
+            |center, normal| ToolShape::Disk {
+                center,
+                normal,
+                radius,
+            },
+            self.contact_force,
+            self.max_increment,
         );
-        let loading = StepControl {
-            initial_increment: self.max_increment.min(0.1),
-            max_increment: self.max_increment,
-            ..StepControl::default()
-        };
-        let f = self.contact_force;
-        let supports = cell.model.supports.clone();
-        let hold = cell.rotation_hold.clone();
-        // Approach: both tools move in (up to a quarter diameter each) until the moving one
-        // feels `contact_force`; the supports still hold the cell.
+        let (fixed, moving) = (&test.fixed, &test.moving);
         let travel = 0.25 * d;
         let steps = &mut cell.model.steps;
-        steps.push(loading_step(
-            "approach",
-            loading,
-            &supports,
-            vec![
-                axial_motion(&fixed, axis, travel, None, f),
-                axial_motion(&moving, axis, -travel, Some(f), f),
-            ],
-        ));
-        steps.push(loading_step(
+        steps.push(test.step(
             "pinch",
-            loading,
-            &supports,
+            true,
             vec![
-                axial_motion(&fixed, axis, 0.5 * self.pinch, None, f),
-                axial_motion(&moving, axis, -0.5 * self.pinch, None, f),
+                test.motion(fixed, 0.5 * self.pinch, None),
+                test.motion(moving, -0.5 * self.pinch, None),
             ],
         ));
         // Retract the moving pipette until its force is zero: the unloaded reference state.
         let reference_step = steps.len();
-        steps.push(loading_step(
+        steps.push(test.step(
             "retract",
-            loading,
-            &hold,
-            vec![axial_motion(&moving, axis, travel, Some(0.0), f)],
+            false,
+            vec![test.motion(moving, travel, Some(0.0))],
         ));
         let stretch_step = steps.len();
-        steps.push(loading_step(
+        steps.push(test.step(
             "stretch",
-            loading,
-            &hold,
-            vec![axial_motion(&moving, axis, self.elongation, None, f)],
+            false,
+            vec![test.motion(moving, self.elongation, None)],
         ));
         Ok(ProtocolPlan::MicropipetteTension {
-            moving_tool: moving,
+            moving_tool: test.moving,
             reference_step,
             stretch_step,
             elongation: self.elongation,

@@ -2,12 +2,11 @@
 //! `contact_force` → compress to each deformation of the diameter in turn. Bonded plates.
 
 use cellmech_fem::contact::ToolShape;
-use cellmech_fem::solve::StepControl;
 
-use super::{axial_motion, loading_step, place_pole_tools, ProtocolError, ProtocolPlan};
+use super::{PoleTest, ProtocolError, ProtocolPlan};
 use crate::cell::BuiltCell;
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
-use crate::units::Dimension::{Dimensionless, Force};
+use crate::units::Dimension::Dimensionless;
 
 /// The parameters of `kind = "microplate-compression"`.
 pub const MICROPLATE_COMPRESSION: ParamTable = ParamTable {
@@ -22,22 +21,8 @@ pub const MICROPLATE_COMPRESSION: ParamTable = ParamTable {
             doc: "deformations of the diameter at which to report, increasing",
             source: "spec",
         },
-        ParamDef {
-            key: "contact_force",
-            kind: K::Quantity(Force),
-            default: D::Number(0.1),
-            bounds: Bounds::POSITIVE,
-            doc: "force on the moving plate that counts as touching in the approach",
-            source: "choice",
-        },
-        ParamDef {
-            key: "max_increment",
-            kind: K::Number,
-            default: D::Number(0.1),
-            bounds: Bounds::new(0.0, false, 1.0, true),
-            doc: "largest increment of the loading steps, fraction of the step",
-            source: "choice",
-        },
+        super::CONTACT_FORCE,
+        super::MAX_INCREMENT,
     ],
 };
 
@@ -84,55 +69,28 @@ impl MicroplateCompression {
             });
         }
         let d = cell.description.cell_diameter;
-        let r = 0.5 * d;
-        let axis = cell.description.axis;
-        let plate = |side: f64| {
-            let mut point = [0.0; 3];
-            point[axis] = side * r;
-            let mut normal = [0.0; 3];
-            normal[axis] = -side;
-            ToolShape::Plate { point, normal }
-        };
-        let [fixed, moving] = place_pole_tools(
+        let test = PoleTest::approach(
             cell,
             ["bottom_plate", "top_plate"],
-            [plate(-1.0), plate(1.0)],
+            |point, normal| ToolShape::Plate { point, normal },
+            self.contact_force,
+            self.max_increment,
         );
-        let loading = StepControl {
-            initial_increment: self.max_increment.min(0.1),
-            max_increment: self.max_increment,
-            ..StepControl::default()
-        };
-        let f = self.contact_force;
-        let supports = cell.model.supports.clone();
-        let hold = cell.rotation_hold.clone();
-        let travel = 0.25 * d;
         let steps = &mut cell.model.steps;
-        let contact_step = steps.len();
-        steps.push(loading_step(
-            "approach",
-            loading,
-            &supports,
-            vec![
-                axial_motion(&fixed, axis, travel, None, f),
-                axial_motion(&moving, axis, -travel, Some(f), f),
-            ],
-        ));
         let mut previous = 0.0;
         let mut targets = Vec::new();
         for e in list {
             targets.push((steps.len(), *e));
-            steps.push(loading_step(
+            steps.push(test.step(
                 &format!("compress-{:.0}", 100.0 * e),
-                loading,
-                &hold,
-                vec![axial_motion(&moving, axis, -(e - previous) * d, None, f)],
+                false,
+                vec![test.motion(&test.moving, -(e - previous) * d, None)],
             ));
             previous = *e;
         }
         Ok(ProtocolPlan::MicroplateCompression {
-            moving_tool: moving,
-            contact_step,
+            moving_tool: test.moving,
+            contact_step: test.approach_step,
             deformations: targets,
         })
     }

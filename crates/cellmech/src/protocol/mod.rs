@@ -8,12 +8,14 @@ pub mod micropipette_tension;
 pub mod microplate_compression;
 pub mod results;
 
-use cellmech_fem::contact::ContactKind;
+use cellmech_fem::contact::{ContactKind, ToolShape};
+use cellmech_fem::solve::StepControl;
 
 use crate::cell::BuiltCell;
 use crate::model::tools::{default_penalty, default_tolerance, ForceTarget, ToolMotion, ToolSpec};
 use crate::model::StepSpec;
-use crate::param::{ParamTable, ParamValues};
+use crate::param::{Bounds, ParamDef, ParamDefault, ParamKind, ParamTable, ParamValues};
+use crate::units::Dimension;
 
 pub use micropipette_tension::MicropipetteTension;
 pub use microplate_compression::MicroplateCompression;
@@ -162,84 +164,150 @@ pub enum ProtocolPlan {
     },
 }
 
-/// Places two bonded tools of the given shapes at the two poles of the cell along its test
-/// axis (node sets `pole_minus`, `pole_plus`: surface nodes beyond half the radius).
-pub(crate) fn place_pole_tools(
-    cell: &mut BuiltCell,
-    names: [&str; 2],
-    shapes: [cellmech_fem::contact::ToolShape; 2],
-) -> [ToolHandle; 2] {
-    let axis = cell.description.axis;
-    let r = 0.5 * cell.description.cell_diameter;
-    let mesh = &mut cell.model.mesh;
-    let surface = mesh
-        .node_sets
-        .get(&cell.surface_set)
-        .cloned()
-        .unwrap_or_default();
-    for (name, side) in [("pole_minus", -1.0), ("pole_plus", 1.0)] {
-        let nodes: Vec<usize> = surface
-            .iter()
-            .copied()
-            .filter(|&n| mesh.nodes[n][axis] * side > 0.5 * r)
-            .collect();
-        mesh.insert_node_set(name, nodes);
-    }
-    let mut handles = Vec::new();
-    for ((name, shape), set) in names.iter().zip(shapes).zip(["pole_minus", "pole_plus"]) {
-        let nodes = &cell.model.mesh.node_sets[set];
-        handles.push(ToolHandle {
-            index: cell.model.tools.len(),
-            name: name.to_string(),
-        });
-        cell.model.tools.push(ToolSpec {
-            name: name.to_string(),
-            shape,
-            kind: ContactKind::Bonded,
-            node_set: set.into(),
-            penalty: default_penalty(&cell.model.materials, &cell.model.mesh, nodes),
-            tolerance: default_tolerance(&cell.model.mesh),
-        });
-    }
-    let moving = handles.pop().expect("two tools");
-    let fixed = handles.pop().expect("two tools");
-    [fixed, moving]
-}
+/// The declared `contact_force` of the two-tool protocols.
+pub(crate) const CONTACT_FORCE: ParamDef = ParamDef {
+    key: "contact_force",
+    kind: ParamKind::Quantity(Dimension::Force),
+    default: ParamDefault::Number(0.1),
+    bounds: Bounds::POSITIVE,
+    doc: "force on the moving tool that counts as touching in the approach",
+    source: "choice (0.2 % of the tensile force at 6.3 µm)",
+};
 
-/// A tool's move along the cell's test axis over a step, optionally until its force
-/// reaches `until` (tolerance 5 % of `contact_force`).
-pub(crate) fn axial_motion(
-    tool: &ToolHandle,
+/// The declared `max_increment` of the two-tool protocols.
+pub(crate) const MAX_INCREMENT: ParamDef = ParamDef {
+    key: "max_increment",
+    kind: ParamKind::Number,
+    default: ParamDefault::Number(0.1),
+    bounds: Bounds::new(0.0, false, 1.0, true),
+    doc: "largest increment of the loading steps, fraction of the step",
+    source: "choice (a curve point every 10 %)",
+};
+
+/// Two bonded tools on the cell's poles along its test axis, after the common approach
+/// step: what the two-tool protocols (tension, compression) build their own steps on.
+pub(crate) struct PoleTest {
+    /// The tool that stays (at −axis).
+    pub fixed: ToolHandle,
+    /// The tool that moves (at +axis).
+    pub moving: ToolHandle,
+    /// Step control of the loading steps.
+    pub loading: StepControl,
+    /// Supports kept once the tools hold the cell.
+    pub hold: Vec<(String, [bool; 3])>,
+    /// The cell's minimal supports.
+    pub supports: Vec<(String, [bool; 3])>,
+    /// Index of the approach step.
+    pub approach_step: usize,
     axis: usize,
-    distance: f64,
-    until: Option<f64>,
     contact_force: f64,
-) -> ToolMotion {
-    let mut movement = [0.0; 3];
-    movement[axis] = distance;
-    ToolMotion {
-        tool: tool.name.clone(),
-        movement,
-        until_force: until.map(|value| ForceTarget {
-            value,
-            tolerance: 0.05 * contact_force,
-        }),
-    }
 }
 
-/// A loading step with the given supports and tool motions.
-pub(crate) fn loading_step(
-    name: &str,
-    control: cellmech_fem::solve::StepControl,
-    fixes: &[(String, [bool; 3])],
-    tools: Vec<ToolMotion>,
-) -> StepSpec {
-    StepSpec {
-        name: name.into(),
-        control,
-        fixes: fixes.to_vec(),
-        displacements: Vec::new(),
-        forces: Vec::new(),
-        tools,
+impl PoleTest {
+    /// Places the tools (`shape(center, normal)` for each pole, the normal pointing into the
+    /// cell; node sets `pole_minus`, `pole_plus`: surface nodes beyond half the radius) and
+    /// writes the approach: both tools move in (up to a quarter diameter each) until the
+    /// moving one feels `contact_force`, the supports still holding the cell.
+    pub fn approach(
+        cell: &mut BuiltCell,
+        names: [&str; 2],
+        shape: impl Fn([f64; 3], [f64; 3]) -> ToolShape,
+        contact_force: f64,
+        max_increment: f64,
+    ) -> Self {
+        let axis = cell.description.axis;
+        let r = 0.5 * cell.description.cell_diameter;
+        let mesh = &mut cell.model.mesh;
+        let surface = mesh
+            .node_sets
+            .get(&cell.surface_set)
+            .cloned()
+            .unwrap_or_default();
+        let sides = [("pole_minus", -1.0), ("pole_plus", 1.0)];
+        for (name, side) in sides {
+            let nodes: Vec<usize> = surface
+                .iter()
+                .copied()
+                .filter(|&n| mesh.nodes[n][axis] * side > 0.5 * r)
+                .collect();
+            mesh.insert_node_set(name, nodes);
+        }
+        let [fixed, moving] = std::array::from_fn(|k| {
+            let (set, side) = sides[k];
+            let (mut center, mut normal) = ([0.0; 3], [0.0; 3]);
+            center[axis] = side * r;
+            normal[axis] = -side;
+            let nodes = &cell.model.mesh.node_sets[set];
+            let handle = ToolHandle {
+                index: cell.model.tools.len(),
+                name: names[k].to_string(),
+            };
+            cell.model.tools.push(ToolSpec {
+                name: names[k].to_string(),
+                shape: shape(center, normal),
+                kind: ContactKind::Bonded,
+                node_set: set.into(),
+                penalty: default_penalty(&cell.model.materials, &cell.model.mesh, nodes),
+                tolerance: default_tolerance(&cell.model.mesh),
+            });
+            handle
+        });
+        let test = PoleTest {
+            fixed,
+            moving,
+            loading: StepControl {
+                initial_increment: max_increment.min(0.1),
+                max_increment,
+                ..StepControl::default()
+            },
+            hold: cell.rotation_hold.clone(),
+            supports: cell.model.supports.clone(),
+            approach_step: cell.model.steps.len(),
+            axis,
+            contact_force,
+        };
+        let travel = 0.25 * cell.description.cell_diameter;
+        let approach = test.step(
+            "approach",
+            true,
+            vec![
+                test.motion(&test.fixed, travel, None),
+                test.motion(&test.moving, -travel, Some(contact_force)),
+            ],
+        );
+        cell.model.steps.push(approach);
+        test
+    }
+
+    /// A tool's move along the test axis over a step, optionally until its force reaches
+    /// `until` (tolerance 5 % of `contact_force`).
+    pub fn motion(&self, tool: &ToolHandle, distance: f64, until: Option<f64>) -> ToolMotion {
+        let mut movement = [0.0; 3];
+        movement[self.axis] = distance;
+        ToolMotion {
+            tool: tool.name.clone(),
+            movement,
+            until_force: until.map(|value| ForceTarget {
+                value,
+                tolerance: 0.05 * self.contact_force,
+            }),
+        }
+    }
+
+    /// A loading step held by the minimal supports (`supported`) or only by the rotation hold.
+    pub fn step(&self, name: &str, supported: bool, tools: Vec<ToolMotion>) -> StepSpec {
+        StepSpec {
+            name: name.into(),
+            control: self.loading,
+            fixes: if supported {
+                &self.supports
+            } else {
+                &self.hold
+            }
+            .to_vec(),
+            displacements: Vec::new(),
+            forces: Vec::new(),
+            tools,
+        }
     }
 }
