@@ -53,6 +53,73 @@ pub struct StepControl {
     pub cutback: f64,
     /// Newton convergence criteria.
     pub convergence: Convergence,
+    /// Automatic viscous stabilisation (`None`: off). See [`Stabilization`].
+    pub stabilization: Option<Stabilization>,
+}
+
+/// Automatic viscous stabilisation of a static step (as Abaqus `*STATIC, STABILIZE`): an
+/// artificial viscosity carries the solve through buckling and snap-through; the energy it
+/// dissipates is reported and kept small, and the step ends in a true equilibrium when one
+/// exists. See the module `solve::stabilize` and `docs/stabilization.md`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Stabilization {
+    /// Fraction of the first increment's strain energy that the calibrated viscosity would
+    /// dissipate over the same motion (Abaqus's default 2e-4).
+    pub energy_fraction: f64,
+    /// Largest accepted ratio of the step's dissipated energy to the strain energy; above
+    /// it the damping factor is halved for the following increments (Abaqus's default 0.05).
+    pub accuracy_tolerance: f64,
+    /// A damping factor given explicitly instead of calibrated (dimensionless).
+    pub factor: Option<f64>,
+    /// Re-solve the step's last increment without viscosity so the final state is an
+    /// equilibrium (kept damped, and reported so, when that fails).
+    pub equilibrate_at_end: bool,
+    /// From the step's start, or only once an increment has failed.
+    pub activation: Activation,
+}
+
+/// When viscous stabilisation switches on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Activation {
+    /// From the step's first increment (as Abaqus `*STATIC, STABILIZE`).
+    Always,
+    /// At the first failed increment of the step: a step that converges without it is
+    /// solved exactly as without stabilisation.
+    OnDifficulty,
+}
+
+impl Default for Stabilization {
+    fn default() -> Self {
+        Stabilization {
+            energy_fraction: 2e-4,
+            accuracy_tolerance: 0.05,
+            factor: None,
+            equilibrate_at_end: true,
+            activation: Activation::Always,
+        }
+    }
+}
+
+impl Stabilization {
+    /// Checks the settings; the message names the offending field.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!(
+                    "stabilization {name} must be a finite number > 0, found {v}"
+                ))
+            }
+        };
+        positive("energy_fraction", self.energy_fraction)?;
+        positive("accuracy_tolerance", self.accuracy_tolerance)?;
+        if let Some(c) = self.factor {
+            positive("factor", c)?;
+        }
+        Ok(())
+    }
 }
 
 impl Default for StepControl {
@@ -65,6 +132,7 @@ impl Default for StepControl {
             growth: 1.5,
             cutback: 0.5,
             convergence: Convergence::default(),
+            stabilization: None,
         }
     }
 }

@@ -12,13 +12,15 @@ mod error;
 mod newton;
 mod observer;
 mod problem;
+mod stabilize;
 mod step;
 
-pub use control::{Convergence, StepControl};
+pub use control::{Activation, Convergence, Stabilization, StepControl};
 pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};
 pub use problem::{Problem, Timings};
+pub use stabilize::StabilizationReport;
 pub use step::{Monitor, Motion, NodalLoad, Step, StopCondition};
 
 #[cfg(test)]

@@ -90,7 +90,19 @@ impl Problem {
         }
         let r0 = norm_where(&self.work.rhs, &self.prescribed, false);
         let mut scale_floor = r0.max(norm_where(&self.f_ext, &self.prescribed, false));
-        self.factorize_and_solve()?;
+        match self.stabilizer_needs_calibration() {
+            Some(true) => self.calibrate_stabilizer()?,
+            Some(false) => {
+                // Waiting for difficulty: calibrate on the real, undamped predictor.
+                self.factorize_and_solve()?;
+                let energy = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+                if let Some(st) = &mut self.stabilizer {
+                    st.calibrate(Some(&self.work.delta), energy);
+                    st.rate = 0.0;
+                }
+            }
+            None => self.factorize_and_solve()?,
+        }
         let energy0 = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
         let mut step_length = 1.0;
         let mut augmentations = 0;
@@ -107,6 +119,7 @@ impl Problem {
             }
             let (residual_ratio, energy_ratio, scale) =
                 self.measure(&mut scale_floor, step_length, energy0);
+            self.work.scale = scale;
             let report = IterationReport {
                 iteration,
                 residual_ratio,
@@ -252,9 +265,56 @@ impl Problem {
             Some(c) => c.assemble(assembler, terms, u, prescribed, output),
             None => assembler.assemble(terms, u, prescribed, output),
         })?;
+        if let Some(st) = &self.stabilizer {
+            st.add_forces(&self.u, &mut self.residual);
+            let pattern = match &self.condensation {
+                Some(c) => c.reduced_pattern(),
+                None => self.assembler.pattern(),
+            };
+            st.add_tangent(&mut self.work.values, |d| pattern.col_ptr[d]);
+        }
         self.timings.assembly_s += start.elapsed().as_secs_f64();
         self.timings.assemblies += 1;
         Ok(())
+    }
+
+    /// Sets the stabiliser's weights at the step's first assembly (the tangent's diagonal
+    /// on the free, unconstrained DOFs). When its damping factor is still to be calibrated:
+    /// `Some(active)`; else `None`.
+    fn stabilizer_needs_calibration(&mut self) -> Option<bool> {
+        let st = self.stabilizer.as_mut()?;
+        if !st.weighted {
+            let pattern = match &self.condensation {
+                Some(c) => c.reduced_pattern(),
+                None => self.assembler.pattern(),
+            };
+            let constraints = self.condensation.as_ref().map(|c| c.constraints());
+            let (prescribed, values) = (&self.prescribed, &self.work.values);
+            st.set_weights(
+                |d| !prescribed[d] && !constraints.is_some_and(|c| c.is_slave(d)),
+                |d| values[pattern.col_ptr[d]],
+            );
+        }
+        st.factor.is_none().then_some(st.active)
+    }
+
+    /// Calibrates the damping factor on the undamped predictor of the step's first
+    /// increment (see `solve::stabilize`), then solves that predictor again with the
+    /// viscosity in the tangent.
+    fn calibrate_stabilizer(&mut self) -> Result<(), FailureReason> {
+        let undamped = self.factorize_and_solve();
+        let energy = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+        let pattern = match &self.condensation {
+            Some(c) => c.reduced_pattern(),
+            None => self.assembler.pattern(),
+        };
+        let Some(st) = &mut self.stabilizer else {
+            return undamped;
+        };
+        let delta = undamped.is_ok().then_some(self.work.delta.as_slice());
+        st.calibrate(delta, energy);
+        st.add_tangent(&mut self.work.values, |d| pattern.col_ptr[d]);
+        self.factorize_and_solve()
     }
 
     /// Residual only at `u + s δ` (into `residual_trial`); returns δ·R(s) on free DOFs.
@@ -280,6 +340,9 @@ impl Problem {
             Some(c) => c.assemble(assembler, terms, trial, prescribed, output),
             None => assembler.assemble(terms, trial, prescribed, output),
         })?;
+        if let Some(st) = &self.stabilizer {
+            st.add_forces(&self.work.trial, &mut self.work.residual_trial);
+        }
         self.timings.residual_only_s += start.elapsed().as_secs_f64();
         Ok(self.projection(&self.work.residual_trial))
     }

@@ -4,6 +4,7 @@
 use super::error::FailureReason;
 use super::newton::IterationReport;
 use super::problem::Problem;
+use super::stabilize::StabilizationReport;
 
 /// A converged increment.
 #[derive(Debug, Clone)]
@@ -24,6 +25,8 @@ pub struct IncrementReport<'a> {
     pub residual_history: &'a [f64],
     /// Internal energy of all terms (nN·µm).
     pub energy: f64,
+    /// What the viscous stabilisation did, when the step has it.
+    pub stabilization: Option<StabilizationReport>,
 }
 
 /// Receives solver events. All methods have empty defaults.

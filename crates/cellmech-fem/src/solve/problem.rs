@@ -3,6 +3,7 @@
 use super::control::StepControl;
 use super::error::SolveError;
 use super::observer::{IncrementReport, Observer};
+use super::stabilize::{StabilizationReport, Stabilizer};
 use super::step::{Monitor, Motion, Step};
 use crate::assembly::Assembler;
 use crate::constraint::condense::Condensation;
@@ -23,6 +24,8 @@ pub(super) struct Work {
     pub residual_trial: Vec<f64>,
     pub magnitude: Vec<f64>,
     pub history: Vec<f64>,
+    /// Force scale of the last measured iteration (nN).
+    pub scale: f64,
 }
 
 /// Wall-clock time spent in the hot parts of the solver, summed over the problem's life.
@@ -73,6 +76,8 @@ pub struct Problem {
     pub(super) length_scale: f64,
     /// Linear constraints eliminated exactly (embedded nodes), if any.
     pub(super) condensation: Option<Condensation>,
+    /// Viscous stabilisation of the running step, if it has one.
+    pub(super) stabilizer: Option<Stabilizer>,
 }
 
 impl Problem {
@@ -159,11 +164,13 @@ impl Problem {
                 residual_trial: vec![0.0; n],
                 magnitude: vec![0.0; n],
                 history: Vec::with_capacity(64),
+                scale: 0.0,
             },
             total_time: 0.0,
             steps_done: 0,
             length_scale: 0.0,
             condensation,
+            stabilizer: None,
         })
     }
 
@@ -269,6 +276,7 @@ impl Problem {
             f_end[load.dof] = load.value;
         }
         let control = &step.control;
+        self.stabilizer = control.stabilization.map(|s| Stabilizer::new(s, n));
         let mut time = 0.0;
         let mut dt = control.initial_increment.min(control.max_increment);
         let mut increments = 0;
@@ -319,6 +327,9 @@ impl Problem {
             for term in &mut self.terms {
                 term.set_load_state(&load_state);
             }
+            if let Some(st) = &mut self.stabilizer {
+                st.start_increment(&saved_u, t - time);
+            }
             let outcome = self.newton_increment(&target_u, &target_f, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
                 let g = gap(self).unwrap_or(g0);
@@ -336,7 +347,16 @@ impl Problem {
                 }
             }
             match outcome {
-                Ok(iterations) => {
+                Ok(mut iterations) => {
+                    let final_increment = t >= 1.0 - 1e-12;
+                    let stabilization = self.finish_stabilized_increment(
+                        final_increment,
+                        &target_u,
+                        &target_f,
+                        control,
+                        observer,
+                        &mut iterations,
+                    );
                     for term in &mut self.terms {
                         term.commit(&self.u, &self.dof_map);
                     }
@@ -351,6 +371,7 @@ impl Problem {
                         iterations,
                         residual_history: &self.work.history,
                         energy: self.energy,
+                        stabilization,
                     };
                     observer.on_increment(self, &report);
                     if iterations <= control.easy_iterations {
@@ -371,6 +392,9 @@ impl Problem {
                     self.f_ext = saved_f;
                     observer.on_cutback(time, dt, &reason);
                     dt *= control.cutback;
+                    if let Some(st) = &mut self.stabilizer {
+                        st.boost();
+                    }
                     if dt < control.min_increment {
                         return Err(SolveError::IncrementTooSmall {
                             step: step.name.clone(),
@@ -395,7 +419,70 @@ impl Problem {
         }
         self.total_time += step.duration;
         self.steps_done += 1;
+        self.stabilizer = None;
         Ok(())
+    }
+
+    /// After a stabilised increment converged: books its dissipated energy and, at the end
+    /// of the step, re-solves without viscosity so the final state is an equilibrium (the
+    /// damped state is kept when that fails). `None` without stabilisation.
+    fn finish_stabilized_increment(
+        &mut self,
+        final_increment: bool,
+        target_u: &[f64],
+        target_f: &[f64],
+        control: &StepControl,
+        observer: &mut dyn Observer,
+        iterations: &mut usize,
+    ) -> Option<StabilizationReport> {
+        let st = self.stabilizer.as_ref()?;
+        let increment = st.dissipation(&self.u);
+        let scale = self.work.scale;
+        let ratio = |force: f64| if scale > 0.0 { force / scale } else { 0.0 };
+        let mut viscous_force_ratio = ratio(st.force_norm(&self.u));
+        let rate = st.rate;
+        let mut equilibrated = rate == 0.0;
+        if final_increment
+            && st.settings.equilibrate_at_end
+            && viscous_force_ratio > control.convergence.residual_tolerance
+        {
+            let damped_u = self.u.clone();
+            if let Some(st) = &mut self.stabilizer {
+                st.rate = 0.0;
+            }
+            match self.newton_increment(target_u, target_f, control, observer) {
+                Ok(more) => {
+                    *iterations += more;
+                    equilibrated = true;
+                    viscous_force_ratio = 0.0;
+                }
+                Err(_) => {
+                    self.u = damped_u;
+                    if let Some(st) = &mut self.stabilizer {
+                        st.rate = rate;
+                    }
+                    // The state was assembled there before: this cannot fail.
+                    let _ = self.assemble_full(false);
+                }
+            }
+        }
+        let energy = self.energy;
+        let st = self.stabilizer.as_mut()?;
+        let factor = if st.active {
+            st.factor.unwrap_or(0.0)
+        } else {
+            0.0
+        };
+        let easy = *iterations <= control.easy_iterations;
+        let dissipated_fraction = st.commit(increment, energy, easy);
+        Some(StabilizationReport {
+            factor,
+            increment_dissipated: increment,
+            step_dissipated: st.dissipated,
+            dissipated_fraction,
+            viscous_force_ratio,
+            equilibrated,
+        })
     }
 
     /// Value of a monitored quantity at the current state (`None` if a named term output
@@ -460,6 +547,9 @@ impl Problem {
             )));
         }
         self.check_step_constraints(step).map_err(invalid)?;
+        if let Some(s) = &c.stabilization {
+            s.validate().map_err(invalid)?;
+        }
         Ok(())
     }
 }

@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use cellmech_fem::element::KernelError;
-use cellmech_fem::solve::{FailureReason, IncrementReport, IterationReport, Observer, Problem};
+use cellmech_fem::solve::{
+    FailureReason, IncrementReport, IterationReport, Observer, Problem, StabilizationReport,
+};
 use cellmech_io::{CurveWriter, Field, PvdSeries, VtuBlock, VtuFrame};
 
 pub mod model_view;
@@ -28,6 +30,13 @@ pub struct StepStats {
     pub cutback_reasons: Vec<String>,
     /// Wall-clock seconds from the step's start to its last converged increment.
     pub wall_time_s: f64,
+    /// Viscous stabilisation at the step's last increment (absent when the step had none
+    /// or it never switched on).
+    pub stabilization: Option<StabilizationReport>,
+    /// Increments solved with viscous forces on.
+    pub stabilized_increments: usize,
+    /// Largest damping factor used in the step.
+    pub max_stabilization_factor: f64,
 }
 
 /// Writes outputs as the solver converges increments.
@@ -45,6 +54,7 @@ pub struct OutputWriter {
     pub error: Option<String>,
     curve_csv: CurveWriter,
     convergence_csv: CurveWriter,
+    increments_csv: CurveWriter,
     pvd: PvdSeries,
     vtk_every: usize,
     attempt: usize,
@@ -95,6 +105,20 @@ impl OutputWriter {
         let convergence_csv =
             CurveWriter::create(&dir.join("convergence.csv"), &convergence_header)
                 .map_err(|e| e.to_string())?;
+        let increments_header = [
+            "step",
+            "increment",
+            "time",
+            "iterations",
+            "energy_nNum",
+            "stabilization_factor",
+            "dissipated_increment_nNum",
+            "dissipated_step_nNum",
+            "dissipated_fraction",
+            "viscous_force_ratio",
+        ];
+        let increments_csv = CurveWriter::create(&dir.join("increments.csv"), &increments_header)
+            .map_err(|e| e.to_string())?;
         let pvd = PvdSeries::new(dir, "fields").map_err(|e| e.to_string())?;
         Ok(OutputWriter {
             curves: model.curves.clone(),
@@ -106,6 +130,7 @@ impl OutputWriter {
             error: None,
             curve_csv,
             convergence_csv,
+            increments_csv,
             pvd,
             vtk_every,
             attempt: 0,
@@ -211,7 +236,29 @@ impl Observer for OutputWriter {
         if let Some(s) = self.stats.last_mut() {
             s.increments += 1;
             s.wall_time_s = elapsed;
+            if let Some(st) = report.stabilization {
+                s.stabilization = Some(st);
+                s.max_stabilization_factor = s.max_stabilization_factor.max(st.factor);
+                if st.factor > 0.0 {
+                    s.stabilized_increments += 1;
+                }
+            }
         }
+        let st = report.stabilization;
+        let row = [
+            report.step_index as f64,
+            report.increment as f64,
+            report.total_time,
+            report.iterations as f64,
+            report.energy,
+            st.map_or(0.0, |s| s.factor),
+            st.map_or(0.0, |s| s.increment_dissipated),
+            st.map_or(0.0, |s| s.step_dissipated),
+            st.map_or(0.0, |s| s.dissipated_fraction),
+            st.map_or(0.0, |s| s.viscous_force_ratio),
+        ];
+        let result = self.increments_csv.push_row(&row);
+        self.record(result);
         let step_end = (report.step_time - 1.0).abs() < 1e-12;
         let due = step_end || (self.vtk_every > 0 && report.increment % self.vtk_every == 0);
         self.record_state(
