@@ -30,6 +30,8 @@ pub struct BuiltCell {
     /// The supports kept once tools hold the cell: they remove the rotation about the test
     /// axis that bonded patches near the axis can leave free, and carry (almost) no load.
     pub rotation_hold: Vec<(String, [bool; 3])>,
+    /// Viscous stabilisation for the protocol's steps (as the prestress has it).
+    pub stabilization: Option<cellmech_fem::solve::Stabilization>,
 }
 
 /// What is known about a built cell, for outputs and summaries (`summary.json`).

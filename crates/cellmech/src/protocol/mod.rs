@@ -258,6 +258,7 @@ impl PoleTest {
             loading: StepControl {
                 initial_increment: max_increment.min(0.1),
                 max_increment,
+                stabilization: cell.stabilization,
                 ..StepControl::default()
             },
             hold: cell.rotation_hold.clone(),

@@ -141,6 +141,14 @@ pub struct StepSection {
     pub residual_tolerance: Option<f64>,
     /// Relative energy tolerance (default 1e-12).
     pub energy_tolerance: Option<f64>,
+    /// Viscous stabilisation: `"off"` (default), `"on-difficulty"` or `"always"`.
+    pub stabilization: Option<Spanned<String>>,
+    /// Fraction of the first increment's strain energy the calibrated viscosity dissipates
+    /// (default 2e-4).
+    pub stabilization_energy_fraction: Option<f64>,
+    /// Largest ratio of dissipated to strain energy before the viscosity is reduced
+    /// (default 0.05).
+    pub stabilization_accuracy: Option<f64>,
     /// Node sets held in place (components default to all).
     #[serde(default)]
     pub fix: Vec<FixSection>,

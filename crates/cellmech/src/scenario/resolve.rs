@@ -6,7 +6,7 @@ use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::NeoHookean;
 use cellmech_fem::mesh::generate::{box_mesh, sphere_mesh, SphereMeshSpec};
 use cellmech_fem::mesh::{ElementKind, Mesh};
-use cellmech_fem::solve::{Convergence, StepControl};
+use cellmech_fem::solve::{Activation, Convergence, Stabilization, StepControl};
 use toml::Spanned;
 
 use super::context::Ctx;
@@ -385,6 +385,55 @@ fn material_law(s: &MaterialSection) -> Result<NeoHookean, String> {
     })
 }
 
+/// `stabilization`, `stabilization_energy_fraction`, `stabilization_accuracy` of a step.
+fn stabilization(
+    ctx: &Ctx,
+    s: &StepSection,
+    key: &dyn Fn(&str) -> String,
+) -> Result<Option<Stabilization>, ScenarioError> {
+    let activation = match &s.stabilization {
+        None => None,
+        Some(word) => match word.get_ref().as_str() {
+            "off" => None,
+            "on-difficulty" => Some(Activation::OnDifficulty),
+            "always" => Some(Activation::Always),
+            other => {
+                return Err(ctx.invalid(
+                    Some(word.span()),
+                    &key("stabilization"),
+                    format!("expected \"off\", \"on-difficulty\" or \"always\"; found \"{other}\""),
+                ))
+            }
+        },
+    };
+    let tuned = s.stabilization_energy_fraction.is_some() || s.stabilization_accuracy.is_some();
+    let Some(activation) = activation else {
+        if tuned {
+            return Err(ctx.invalid(
+                None,
+                &key("stabilization"),
+                "stabilization_energy_fraction / stabilization_accuracy need stabilization = \"on-difficulty\" or \"always\"; found none",
+            ));
+        }
+        return Ok(None);
+    };
+    let defaults = Stabilization::default();
+    let settings = Stabilization {
+        activation,
+        energy_fraction: s
+            .stabilization_energy_fraction
+            .unwrap_or(defaults.energy_fraction),
+        accuracy_tolerance: s
+            .stabilization_accuracy
+            .unwrap_or(defaults.accuracy_tolerance),
+        ..defaults
+    };
+    settings
+        .validate()
+        .map_err(|message| ctx.invalid(None, &key("stabilization"), message))?;
+    Ok(Some(settings))
+}
+
 fn component(ctx: &Ctx, c: &Spanned<String>, key: &str) -> Result<usize, ScenarioError> {
     match c.get_ref().as_str() {
         "x" => Ok(0),
@@ -464,6 +513,9 @@ fn resolve_step(
             c.min_increment, c.initial_increment, c.max_increment),
         ));
     }
+    let mut control = control;
+    control.stabilization = stabilization(ctx, s, &key)?;
+    let c = &control;
     let tol = &c.convergence;
     if !(tol.residual_tolerance > 0.0
         && tol.residual_tolerance < 1.0

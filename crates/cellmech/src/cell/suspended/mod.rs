@@ -378,6 +378,8 @@ pub struct SuspendedCell {
     pub components: Components,
     /// How the cytoskeleton is tied to the continuum.
     pub coupling: Coupling,
+    /// Viscous stabilisation of every analysis step (`None`: off).
+    pub stabilization: Option<cellmech_fem::solve::Stabilization>,
 }
 
 impl Default for SuspendedCell {
@@ -398,6 +400,7 @@ impl SuspendedCell {
             materials,
             components: Components::default(),
             coupling: params::coupling_from_values(values),
+            stabilization: params::stabilization_from_values(values),
         }
     }
 
@@ -454,6 +457,7 @@ impl SuspendedCell {
             control: cellmech_fem::solve::StepControl {
                 initial_increment: 0.1,
                 max_increment: 0.2,
+                stabilization: self.stabilization,
                 ..Default::default()
             },
             fixes: supports.clone(),
@@ -482,6 +486,7 @@ impl SuspendedCell {
             surface_set: "surface".into(),
             prestress,
             rotation_hold,
+            stabilization: self.stabilization,
         })
     }
 }

@@ -7,6 +7,7 @@
 
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Dimensionless, Length, Pressure};
+use cellmech_fem::solve::{Activation, Stabilization};
 
 use super::cytoskeleton::IfAnchorRule;
 use super::geometry::FaOrientation;
@@ -81,6 +82,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
         p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")"),
         p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice (spec: \"The hybrid model idea\")"),
+        p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)"),
         p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", "spec (EA = 0.60 nN)"),
         p("intermediate.diameter", K::Quantity(Length), D::Number(0.010), POS, "intermediate filament diameter", SPEC),
         p("intermediate.slack", K::Quantity(Dimensionless), D::Number(0.20), NONNEG, "slack: no force below (1 + slack) × the initial length", SPEC),
@@ -156,7 +158,20 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
     (params, materials)
 }
 
-/// How the cytoskeleton is tied to the continuum.
+/// The viscous stabilisation of every step from resolved values of [`SUSPENDED_CELL`].
+pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
+    let activation = match v.word("solver.stabilization") {
+        "always" => Activation::Always,
+        "on-difficulty" => Activation::OnDifficulty,
+        _ => return None,
+    };
+    Some(Stabilization {
+        activation,
+        ..Stabilization::default()
+    })
+}
+
+/// The cytoskeleton's coupling from resolved values of [`SUSPENDED_CELL`].
 pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
     super::Coupling {
         microtubules_embedded: v.word("microtubules.coupling") == "embedded",
