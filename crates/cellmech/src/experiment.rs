@@ -114,7 +114,10 @@ impl Experiment {
     pub fn analysis(&self) -> Result<Analysis, ExperimentError> {
         let mut cell = self.cell.build()?;
         let plan = self.protocol.apply(&mut cell)?;
+        // The protocol's own reaction curves (its handles index them) come first.
+        let protocol_curves = std::mem::take(&mut cell.model.output.curves);
         cell.model.output = self.output.clone();
+        cell.model.output.curves.splice(0..0, protocol_curves);
         Ok(Analysis {
             title: self.title.clone(),
             origin: "<library>".into(),

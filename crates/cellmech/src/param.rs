@@ -220,6 +220,15 @@ impl ParamValues {
         }
     }
 
+    /// The number of an optional parameter (`None`: absent, its documented meaning applies).
+    pub fn optional_number(&self, key: &str) -> Option<f64> {
+        match self.values.get(key) {
+            None => None,
+            Some(ParamValue::Number(x)) => Some(*x),
+            other => undeclared(key, other),
+        }
+    }
+
     /// An optional whole number (`None` when absent).
     pub fn optional_count(&self, key: &str) -> Option<usize> {
         match self.values.get(key) {

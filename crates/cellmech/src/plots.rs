@@ -35,10 +35,8 @@ pub fn plot_curves(
         };
     for (k, curve) in scenario.model.output.curves.iter().enumerate() {
         let c = ["x", "y", "z"][curve.component];
-        let (Some(u), Some(f)) = (
-            writer.column(&format!("{}_u{c}_um", curve.name)),
-            writer.column(&format!("{}_f{c}_nN", curve.name)),
-        ) else {
+        let [u_column, f_column] = crate::model::curve_columns(&curve.name, curve.component);
+        let (Some(u), Some(f)) = (writer.column(&u_column), writer.column(&f_column)) else {
             continue;
         };
         let file = if k == 0 {

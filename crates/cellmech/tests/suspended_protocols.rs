@@ -83,7 +83,10 @@ fn tension_test_stiffens_and_elongates_the_nucleus_along_the_stretch() {
         .map(|p| p.normalised_stiffness_kpa)
         .collect();
     assert!(k.windows(2).all(|w| w[1] > w[0]), "not stiffening: {k:?}");
-    assert!(k.last().unwrap() > &(1.2 * k[0]), "{k:?}");
+    // Last over first secant stiffness with the cap grip: 1.11 on this coarse cell (its
+    // 5-node caps hold a star, not a disk), 1.32 on the default mesh, 1.38 on the fine one
+    // (the contact grip's 1.39 here came partly from patches that grew with the stretch).
+    assert!(k.last().unwrap() > &(1.08 * k[0]), "{k:?}");
     assert_smooth(&r.curve, 1.5);
     // The nucleus elongates along the stretch (x), more at every increment.
     let aspect: Vec<f64> = r.curve.iter().map(|p| p.nucleus_aspect_ratio).collect();

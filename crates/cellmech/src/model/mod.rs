@@ -9,8 +9,8 @@ pub mod structures;
 pub mod tools;
 
 pub use spec::{
-    CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat, ShapeProbeSpec,
-    StepSpec,
+    curve_columns, CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat,
+    ShapeProbeSpec, StepSpec,
 };
 
 use cellmech_fem::constraint::embed::embed_translations;
@@ -33,6 +33,18 @@ pub struct CurveDofs {
     pub dofs: Vec<usize>,
     /// +1 or -1.
     pub sign: f64,
+}
+
+impl CurveDofs {
+    /// Its `curve.csv` columns (displacement, force): [`curve_columns`].
+    pub fn columns(&self) -> [String; 2] {
+        let component = match self.component {
+            'x' => 0,
+            'y' => 1,
+            _ => 2,
+        };
+        curve_columns(&self.name, component)
+    }
 }
 
 /// The shape of a node set along a test axis, reported per converged increment: its

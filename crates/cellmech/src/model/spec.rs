@@ -90,6 +90,14 @@ pub struct StepSpec {
     pub tools: Vec<ToolMotion>,
 }
 
+/// The `curve.csv` columns of a reaction curve `name` in `component` (0, 1, 2): the mean
+/// displacement of its node set (`<name>_u<c>_um`) and the sum of its reactions
+/// (`<name>_f<c>_nN`). The one place these names are formatted.
+pub fn curve_columns(name: &str, component: usize) -> [String; 2] {
+    let c = ['x', 'y', 'z'][component];
+    [format!("{name}_u{c}_um"), format!("{name}_f{c}_nN")]
+}
+
 /// Output requests.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutputSpec {

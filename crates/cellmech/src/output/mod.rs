@@ -72,8 +72,7 @@ impl OutputWriter {
     ) -> Result<Self, String> {
         let mut header = vec!["step".to_string(), "increment".into(), "time".into()];
         for c in &model.curves {
-            header.push(format!("{}_u{}_um", c.name, c.component));
-            header.push(format!("{}_f{}_nN", c.name, c.component));
+            header.extend(c.columns());
         }
         let p = &model.problem;
         for term in p.terms() {

@@ -1,11 +1,20 @@
-//! Micropipette tension: prestress → approach until the moving pipette feels
-//! `contact_force` → pinch → retract until its force is zero (the unloaded reference
-//! state) → stretch by `elongation` along the test axis. Bonded contact on the poles.
+//! Micropipette tension along the cell's test axis. Two grips (`grip`):
+//!
+//! * `cap` (default): after the prestress, the cell-surface nodes within `grip_radius` of
+//!   the axis on each pole are tied to their pipette (prescribed DOFs): the fixed cap is
+//!   held, the moving cap is moved by `elongation` along the axis (its transverse motion
+//!   held); the prestressed state is the unloaded reference; the force is the sum of the
+//!   moving cap's reactions. See [`super::grip`].
+//! * `contact`: prestress → approach until the moving pipette feels `contact_force` →
+//!   pinch → retract until its force is zero (the reference state) → stretch by
+//!   `elongation`. Bonded contact on the poles.
 
 use cellmech_fem::contact::ToolShape;
 
-use super::{PoleTest, ProtocolError, ProtocolPlan};
+use super::grip::{self, CapReport, Pole};
+use super::{Holder, NodeSetHandle, PoleTest, ProtocolError, ProtocolPlan};
 use crate::cell::BuiltCell;
+use crate::model::{CurveSpec, StepSpec};
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::Length;
 
@@ -19,6 +28,8 @@ pub const MICROPIPETTE_TENSION: ParamTable = ParamTable {
     section: "protocol",
     params: &[
         ParamDef { key: "pipette_radius", kind: K::Quantity(Length), default: D::Number(4.0), bounds: Bounds::POSITIVE, doc: "radius of the pipettes' contact disks (below the cell radius)", source: "choice: a holding pipette of 8 µm bore, a quarter of D" },
+        ParamDef { key: "grip", kind: K::Choice(&["cap", "contact"]), default: D::Word("cap"), bounds: Bounds::ANY, doc: "how the pipettes hold the poles: `cap` ties the surface nodes within `grip_radius` of the axis to the pipette (prescribed, mesh-converged); `contact` is bonded contact after approach, pinch and retract", source: "choice ([the grip](suspended-cell.md#the-grip))" },
+        ParamDef { key: "grip_radius", kind: K::Quantity(Length), default: D::Absent("= `pipette_radius`"), bounds: Bounds::POSITIVE, doc: "`grip = \"cap\"`: radius of the gripped cap, measured from the test axis (below the cell radius)", source: "choice: the pipette's contact disk" },
         ParamDef { key: "pinch", kind: K::Quantity(Length), default: D::Number(1.0), bounds: Bounds::POSITIVE, doc: "how far the pipettes press the cell together after touching (below D/4)", source: "choice: \"slightly compressing\" (3 % of D)" },
         ParamDef { key: "elongation", kind: K::Quantity(Length), default: D::Number(6.3), bounds: Bounds::POSITIVE, doc: "end elongation from the unloaded reference state (up to 1.5 D; `\"32 um\"` ≈ 100 %)", source: "spec (≈ 20 %)" },
         super::CONTACT_FORCE,
@@ -26,11 +37,25 @@ pub const MICROPIPETTE_TENSION: ParamTable = ParamTable {
     ],
 };
 
+/// How the pipettes hold the cell's poles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Grip {
+    /// The surface nodes within the grip radius of the axis are prescribed (tied to the
+    /// pipette): no contact, no approach.
+    Cap,
+    /// Bonded rigid contact after approach, pinch and retract.
+    Contact,
+}
+
 /// Micropipette tension settings (µm, nN).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MicropipetteTension {
+    /// How the pipettes hold the poles.
+    pub grip: Grip,
     /// Radius of the pipettes' contact disks.
     pub pipette_radius: f64,
+    /// `Grip::Cap`: radius of the gripped caps (`None`: the pipette radius).
+    pub grip_radius: Option<f64>,
     /// Pinch after touching.
     pub pinch: f64,
     /// End elongation from the reference state.
@@ -52,7 +77,12 @@ impl MicropipetteTension {
     /// Settings from resolved values of [`MICROPIPETTE_TENSION`].
     pub fn from_values(v: &ParamValues) -> Self {
         MicropipetteTension {
+            grip: match v.word("grip") {
+                "contact" => Grip::Contact,
+                _ => Grip::Cap,
+            },
             pipette_radius: v.number("pipette_radius"),
+            grip_radius: v.optional_number("grip_radius"),
             pinch: v.number("pinch"),
             elongation: v.number("elongation"),
             contact_force: v.number("contact_force"),
@@ -93,6 +123,113 @@ impl MicropipetteTension {
                 ),
             });
         }
+        let grip_radius = self.grip_radius.unwrap_or(self.pipette_radius);
+        if grip_radius >= r {
+            return Err(ProtocolError {
+                key: "grip_radius",
+                message: format!(
+                    "expected a grip radius below the cell radius {r} um (a cap holds one pole); found {grip_radius} um"
+                ),
+            });
+        }
+        match self.grip {
+            Grip::Cap => self.apply_cap(cell, grip_radius),
+            Grip::Contact => Ok(self.apply_contact(cell)),
+        }
+    }
+
+    /// The geometric grip: caps of prescribed nodes, one stretch step from the prestressed
+    /// state.
+    fn apply_cap(
+        &self,
+        cell: &mut BuiltCell,
+        grip_radius: f64,
+    ) -> Result<ProtocolPlan, ProtocolError> {
+        let axis = cell.description.axis;
+        let r = 0.5 * cell.description.cell_diameter;
+        let inner = 0.5 * cell.description.nucleus_diameter;
+        let mesh = &mut cell.model.mesh;
+        let surface = mesh
+            .node_sets
+            .get(&cell.surface_set)
+            .cloned()
+            .unwrap_or_default();
+        let keep = mesh
+            .node_sets
+            .get("focal_adhesions")
+            .cloned()
+            .unwrap_or_default();
+        let poles = [-1.0, 1.0].map(|side| Pole { axis, side });
+        let mut rings = Vec::new();
+        for pole in poles {
+            let ring = grip::resolve_cap_ring(mesh, &surface, &keep, pole, r, inner, grip_radius)
+                .map_err(|e| ProtocolError {
+                key: "grip_radius",
+                message: format!("grip radius {grip_radius} um: {e}"),
+            })?;
+            rings.push(ring);
+        }
+        let caps = poles.map(|pole| grip::cap_nodes(mesh, &surface, pole, r, grip_radius));
+        let names = [("fixed_cap", "cap_minus"), ("moving_cap", "cap_plus")];
+        let mut holders = Vec::new();
+        for ((name, set), nodes) in names.iter().zip(&caps) {
+            mesh.insert_node_set(*set, nodes.clone());
+            holders.push(Holder::NodeSet(NodeSetHandle {
+                curve: cell.model.output.curves.len(),
+                name: name.to_string(),
+                node_set: set.to_string(),
+                component: axis,
+            }));
+            cell.model.output.curves.push(CurveSpec {
+                name: name.to_string(),
+                node_set: set.to_string(),
+                component: axis,
+                sign: 1.0,
+            });
+        }
+        let report = CapReport {
+            grip_radius_um: grip_radius,
+            cap_nodes: [caps[0].len(), caps[1].len()],
+            gripped_area_um2: [0, 1].map(|k| grip::gripped_area(mesh, &caps[k])),
+            spherical_cap_area_um2: grip::spherical_cap_area(r, grip_radius),
+            rings: [rings[0].clone(), rings[1].clone()],
+        };
+        let reference_step = cell.model.steps.len() - 1;
+        let stretch_step = cell.model.steps.len();
+        // The caps hold the cell; the minimal supports of the prestress are released.
+        cell.model.steps.push(StepSpec {
+            name: "stretch".into(),
+            control: cellmech_fem::solve::StepControl {
+                initial_increment: self.max_increment.min(0.1),
+                max_increment: self.max_increment,
+                ..Default::default()
+            },
+            fixes: vec![
+                ("cap_minus".into(), [true; 3]),
+                ("cap_plus".into(), [true; 3]),
+            ],
+            displacements: vec![("cap_plus".into(), axis, self.elongation)],
+            forces: Vec::new(),
+            tools: Vec::new(),
+        });
+        let mut holders = holders.into_iter();
+        let (Some(fixed), Some(moving)) = (holders.next(), holders.next()) else {
+            unreachable!("two caps");
+        };
+        Ok(ProtocolPlan::MicropipetteTension {
+            moving,
+            fixed,
+            reference_step,
+            stretch_step,
+            elongation: self.elongation,
+            pipette_radius: self.pipette_radius,
+            caps: Some(report),
+        })
+    }
+
+    /// Bonded contact: approach, pinch, retract to zero force, stretch.
+    fn apply_contact(&self, cell: &mut BuiltCell) -> ProtocolPlan {
+        let d = cell.description.cell_diameter;
         let radius = self.pipette_radius;
         let test = PoleTest::approach(
             cell,
@@ -129,12 +266,14 @@ impl MicropipetteTension {
             false,
             vec![test.motion(moving, self.elongation, None)],
         ));
-        Ok(ProtocolPlan::MicropipetteTension {
-            moving_tool: test.moving,
+        ProtocolPlan::MicropipetteTension {
+            moving: Holder::Tool(test.moving),
+            fixed: Holder::Tool(test.fixed),
             reference_step,
             stretch_step,
             elongation: self.elongation,
             pipette_radius: self.pipette_radius,
-        })
+            caps: None,
+        }
     }
 }

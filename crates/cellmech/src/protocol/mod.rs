@@ -4,6 +4,7 @@
 //! the reference step, the loading steps), from which [`results`] derives the test's own
 //! curve. Nothing here parses files.
 
+pub mod grip;
 pub mod micropipette_tension;
 pub mod microplate_compression;
 pub mod results;
@@ -134,6 +135,65 @@ impl ToolHandle {
     }
 }
 
+/// A node set whose DOFs a protocol prescribes, with the reaction curve that reads its
+/// force: the sum of the reactions on its DOFs along `component` (the curve request at
+/// index `curve` of [`crate::model::OutputSpec::curves`]).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct NodeSetHandle {
+    /// Index in [`crate::model::OutputSpec::curves`].
+    pub curve: usize,
+    /// Curve name (the prefix of its columns).
+    pub name: String,
+    /// The node set.
+    pub node_set: String,
+    /// The component the curve reads (the test axis).
+    pub component: usize,
+}
+
+impl NodeSetHandle {
+    /// The `curve.csv` columns (mean displacement, reaction sum) along its component.
+    fn columns(&self, axis: usize) -> [String; 2] {
+        debug_assert_eq!(axis, self.component, "a node-set curve reads one component");
+        crate::model::curve_columns(&self.name, self.component)
+    }
+}
+
+/// What holds one pole of the cell and measures the force there: a rigid tool with
+/// contact, or a node set of prescribed DOFs (a geometric grip).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum Holder {
+    /// A rigid tool: its force is the tool's contact force.
+    Tool(ToolHandle),
+    /// Prescribed nodes: the force is the sum of their reactions.
+    NodeSet(NodeSetHandle),
+}
+
+impl Holder {
+    /// The `curve.csv` column of the force the holder exerts on the body along `axis`.
+    pub fn force_column(&self, axis: usize) -> String {
+        match self {
+            Holder::Tool(t) => t.force_column(axis),
+            Holder::NodeSet(n) => {
+                let [_, force] = n.columns(axis);
+                force
+            }
+        }
+    }
+
+    /// The `curve.csv` column of the holder's displacement along `axis` (the node set's
+    /// mean displacement).
+    pub fn displacement_column(&self, axis: usize) -> String {
+        match self {
+            Holder::Tool(t) => t.displacement_column(axis),
+            Holder::NodeSet(n) => {
+                let [displacement, _] = n.columns(axis);
+                displacement
+            }
+        }
+    }
+}
+
 /// What a protocol placed, by typed handles: enough to derive its results.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
@@ -142,8 +202,10 @@ pub enum ProtocolPlan {
     Prestress,
     /// Micropipette tension along the cell's test axis.
     MicropipetteTension {
-        /// The moving pipette.
-        moving_tool: ToolHandle,
+        /// What holds the moving pole: the moving pipette (contact grip) or its cap.
+        moving: Holder,
+        /// What holds the fixed pole.
+        fixed: Holder,
         /// Step that ends in the unloaded reference state.
         reference_step: usize,
         /// Step that stretches.
@@ -152,6 +214,8 @@ pub enum ProtocolPlan {
         elongation: f64,
         /// Pipette radius (µm).
         pipette_radius: f64,
+        /// The geometric caps (`None` for the contact grip).
+        caps: Option<grip::CapReport>,
     },
     /// Microplate compression along the cell's test axis.
     MicroplateCompression {

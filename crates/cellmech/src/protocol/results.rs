@@ -10,7 +10,7 @@ use std::path::Path;
 use cellmech_io::{plot_xy, CurveWriter, PlotSpec, Series, SeriesStyle};
 use serde::Serialize;
 
-use super::ProtocolPlan;
+use super::{Holder, ProtocolPlan};
 use crate::cell::CellDescription;
 use crate::output::OutputWriter;
 
@@ -46,6 +46,10 @@ pub struct ProtocolResults {
     pub support_reaction_max_nn: Option<f64>,
     /// Force on the moving tool at the reference (tension) or contact (compression) state.
     pub reference_force_nn: Option<f64>,
+    /// Tension with `grip = "cap"`: the caps (nodes, gripped area, the ring moved onto the
+    /// grip radius).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caps: Option<super::grip::CapReport>,
     /// The test curve, from the reference state on.
     pub curve: Vec<TestPoint>,
     /// Compression: the point at the end of each compression step.
@@ -65,15 +69,15 @@ pub fn write_protocol_results(
     dir: &Path,
     plot_extension: &str,
 ) -> Result<Option<ProtocolResults>, String> {
-    let (kind, tool, reference_step, sign, loading) = match plan {
+    let (kind, holder, reference_step, sign, loading) = match plan {
         ProtocolPlan::MicropipetteTension {
-            moving_tool,
+            moving,
             reference_step,
             stretch_step,
             ..
         } => (
             "micropipette-tension",
-            moving_tool,
+            moving.clone(),
             *reference_step,
             1.0,
             vec![*stretch_step],
@@ -84,7 +88,7 @@ pub fn write_protocol_results(
             deformations,
         } => (
             "microplate-compression",
-            moving_tool,
+            Holder::Tool(moving_tool.clone()),
             *contact_step,
             -1.0,
             deformations.iter().map(|(s, _)| *s).collect(),
@@ -97,8 +101,8 @@ pub fn write_protocol_results(
             .ok_or_else(|| format!("curve.csv has no column {name}"))
     };
     let step = column("step")?;
-    let u = column(&tool.displacement_column(cell.axis))?;
-    let f = column(&tool.force_column(cell.axis))?;
+    let u = column(&holder.displacement_column(cell.axis))?;
+    let f = column(&holder.force_column(cell.axis))?;
     let strain = column("nucleus_max_principal_log_strain")?;
     let aspect = column("nucleus_aspect_ratio")?;
     let support = column("support_reaction_max_nN")?;
@@ -116,6 +120,10 @@ pub fn write_protocol_results(
         prestress_support_reaction_max_nn,
         support_reaction_max_nn: support.iter().copied().reduce(f64::max),
         reference_force_nn: None,
+        caps: match plan {
+            ProtocolPlan::MicropipetteTension { caps, .. } => caps.clone(),
+            _ => None,
+        },
         curve: Vec::new(),
         at_deformations: Vec::new(),
         last: None,

@@ -75,7 +75,7 @@ pub fn resolve(
         text,
         origin,
     )?;
-    let output = resolve_output(&ctx, &raw.output, &mesh)?;
+    let mut output = resolve_output(&ctx, &raw.output, &mesh)?;
     let mut plan = None;
     let (tools, steps) = match (&raw.protocol, &mut cell) {
         (Some(p), Some(built)) => {
@@ -97,6 +97,9 @@ pub fn resolve(
             built.model.materials = materials.clone();
             plan = Some(super::cell::resolve_protocol(&ctx, p.span(), built)?);
             mesh = built.model.mesh.clone();
+            // The protocol's own reaction curves (its handles index them) come first.
+            let protocol_curves = std::mem::take(&mut built.model.output.curves);
+            output.curves.splice(0..0, protocol_curves);
             (
                 std::mem::take(&mut built.model.tools),
                 std::mem::take(&mut built.model.steps),
