@@ -73,6 +73,74 @@ pub enum Command {
     ///   cellmech params micropipette-tension --toml
     #[command(verbatim_doc_comment)]
     Params(ParamsArgs),
+    /// Run a parameter study: a base experiment and its variants, one case per folder.
+    ///
+    /// STUDY is a built-in study (list them with --list) or a study file (docs/studies.md):
+    /// a base scenario and axes of variants (disruption, modulus, thickness,
+    /// compressibility, grid, cases), crossed. Every case is checked before any runs;
+    /// each writes OUT/cases/NAME/ and ends with record.json, so a rerun skips finished
+    /// cases and redoes interrupted ones. Failed cases are recorded with their reason and
+    /// the study goes on. The report (study.csv, study.json, force-over-control.svg,
+    /// curves.svg, report.md, report.html) covers every case recorded in OUT.
+    ///
+    /// Examples:
+    ///   cellmech study --list
+    ///   cellmech study suspended-tension-disruption --out out/disruption --jobs 2
+    ///   cellmech study my-study.toml --shard 3/8 --out shared/study   # one array task
+    ///   cellmech study my-study.toml --collect --out shared/study     # report only
+    ///   cellmech study my-study.toml --collect --from a/ --from b/ --out merged/
+    #[command(verbatim_doc_comment)]
+    Study(StudyArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct StudyArgs {
+    /// Built-in study name or study file.
+    #[arg(required_unless_present = "list")]
+    pub study: Option<String>,
+    /// List the built-in studies.
+    #[arg(long)]
+    pub list: bool,
+    /// Output directory.
+    #[arg(short, long, default_value = "cellmech-study")]
+    pub out: PathBuf,
+    /// Cases run at once (each gets the cores divided by N solver threads).
+    #[arg(short, long, default_value_t = 1)]
+    pub jobs: usize,
+    /// Run only shard K of N (0-based, e.g. 3/8): a stable subset of the cases by name,
+    /// for a cluster's job array (`--shard $SLURM_ARRAY_TASK_ID/N`).
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Run nothing: write the report over the cases recorded in --out (and --from).
+    #[arg(long)]
+    pub collect: bool,
+    /// With --collect: also take recorded cases from these output directories (shards run
+    /// elsewhere), copying them into --out.
+    #[arg(long, value_name = "DIR")]
+    pub from: Vec<PathBuf>,
+    /// Print the cases without running them.
+    #[arg(long)]
+    pub dry_run: bool,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (k, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("expected K/N such as 3/8; found \"{s}\""))?;
+    let k: usize = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a shard number K in K/N; found \"{k}\""))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a shard count N in K/N; found \"{n}\""))?;
+    if n == 0 || k >= n {
+        return Err(format!("expected 0 <= K < N; found {k}/{n}"));
+    }
+    Ok((k, n))
 }
 
 #[derive(Debug, Args)]

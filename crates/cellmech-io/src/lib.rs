@@ -14,6 +14,7 @@
 
 pub mod abaqus;
 pub mod atomic;
+pub mod bars;
 pub mod csv_out;
 pub mod error;
 pub mod gmsh;
@@ -26,6 +27,7 @@ pub mod vtu;
 
 pub use abaqus::{parse_abaqus, read_abaqus, AbaqusDeck, ElementRef};
 pub use atomic::{write_atomic, write_atomic_with};
+pub use bars::{plot_bars, BarSpec};
 pub use csv_out::{CsvError, CurveWriter};
 pub use error::{ReadError, WriteError};
 pub use gmsh::{parse_gmsh, read_gmsh};

@@ -27,6 +27,7 @@ pub mod plots;
 pub mod protocol;
 pub mod run;
 pub mod scenario;
+pub mod study;
 pub mod units;
 
 /// The README's Rust snippet, compiled and run as a doc test.

@@ -119,10 +119,28 @@ pub fn run(
     out_dir: &Path,
     progress: &mut dyn Observer,
 ) -> Result<RunSummary, RunError> {
+    run_with_threads(scenario, out_dir, progress, 0)
+}
+
+/// [`run`] with the solver's thread count set (`0`: rayon's default, see
+/// `cellmech_fem::solve::Problem::set_threads`); a study running cases side by side gives
+/// each a share of the cores.
+pub fn run_with_threads(
+    scenario: &Scenario,
+    out_dir: &Path,
+    progress: &mut dyn Observer,
+    threads: usize,
+) -> Result<RunSummary, RunError> {
     let start = Instant::now();
     std::fs::create_dir_all(out_dir)
         .map_err(|e| RunError::Output(format!("cannot create {}: {e}", out_dir.display())))?;
     let mut model = build(&scenario.model)?;
+    if threads > 0 {
+        model
+            .problem
+            .set_threads(threads)
+            .map_err(|e| RunError::Output(format!("cannot start {threads} solver threads: {e}")))?;
+    }
     let mut writer = OutputWriter::new(
         out_dir,
         &model,

@@ -6,6 +6,7 @@ mod check;
 mod example;
 mod params;
 mod run;
+mod study;
 
 use std::process::ExitCode;
 
@@ -20,5 +21,6 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Example(args) => example::example(&args),
         Command::Bench(args) => bench::bench(&args),
         Command::Params(args) => params::params(&args),
+        Command::Study(args) => study::study(&args),
     }
 }

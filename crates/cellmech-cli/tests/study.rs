@@ -1,0 +1,229 @@
+//! `cellmech study` end to end: a study killed with SIGKILL in the middle of a case and run
+//! again gives the same results as an uninterrupted run, skipping the finished case; the
+//! shards of a study together run every case once and collect into the same results;
+//! bad studies are rejected before anything runs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("cellmech-study-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn cellmech(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cellmech"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// A coarse (448 hex8) tension study with two cases: control and no microtubules.
+const STUDY: &str = r#"
+title = "coarse disruption"
+base = "suspended-tension"
+[set]
+"cell.core_divisions" = 4
+"cell.shell_layers" = 2
+"cell.outer_layers" = 2
+"protocol.elongation" = "2 um"
+[[axis]]
+kind = "disruption"
+families = ["microtubule"]
+"#;
+
+/// study.csv without the wall-time column (the only one that may differ run to run).
+fn results(out: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let wall = header.iter().position(|h| *h == "wall_time_s").unwrap();
+    lines
+        .map(|l| {
+            l.split(',')
+                .enumerate()
+                .filter(|(i, _)| *i != wall)
+                .map(|(_, f)| f.to_string())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn a_study_killed_mid_case_resumes_and_matches_an_uninterrupted_run() {
+    let dir = scratch("resume");
+    let study = dir.join("study.toml");
+    std::fs::write(&study, STUDY).unwrap();
+    let study = study.to_str().unwrap();
+    let interrupted = dir.join("interrupted");
+    // Run, and kill the process (SIGKILL) while the second case is running.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cellmech"))
+        .args([
+            "study",
+            study,
+            "--quiet",
+            "--out",
+            interrupted.to_str().unwrap(),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let first = interrupted.join("cases/control");
+    let second = interrupted.join("cases/no-microtubule");
+    let start = Instant::now();
+    loop {
+        if first.join("record.json").exists() && second.join("case.toml").exists() {
+            child.kill().unwrap(); // SIGKILL on Unix
+            break;
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the study ended before it could be interrupted"
+        );
+        assert!(start.elapsed() < Duration::from_secs(300));
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.wait().unwrap();
+    assert!(
+        !second.join("record.json").exists(),
+        "the second case was not interrupted"
+    );
+    // Rerun: the first case is skipped, the interrupted one redone.
+    let o = cellmech(&[
+        "study",
+        study,
+        "--json",
+        "--out",
+        interrupted.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["skipped"], 1, "{json}");
+    assert_eq!(json["ran"], 1, "{json}");
+    // An uninterrupted run gives the same results, digit for digit.
+    let clean = dir.join("clean");
+    let o = cellmech(&["study", study, "--quiet", "--out", clean.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(results(&interrupted), results(&clean));
+    let rows = results(&clean);
+    assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|r| r.contains(&"completed".to_string())));
+    // Shards: two array tasks into their own folders, collected into a third.
+    let (a, b, merged) = (dir.join("shard0"), dir.join("shard1"), dir.join("merged"));
+    for (k, out) in [(0, &a), (1, &b)] {
+        let shard = format!("{k}/2");
+        let o = cellmech(&[
+            "study",
+            study,
+            "--quiet",
+            "--shard",
+            &shard,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let count = |d: &Path| {
+        ["control", "no-microtubule"]
+            .iter()
+            .filter(|c| d.join("cases").join(c).join("record.json").exists())
+            .count()
+    };
+    assert_eq!(
+        count(&a) + count(&b),
+        2,
+        "each case runs in exactly one shard"
+    );
+    let o = cellmech(&[
+        "study",
+        study,
+        "--quiet",
+        "--collect",
+        "--from",
+        a.to_str().unwrap(),
+        "--from",
+        b.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(results(&merged), results(&clean));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_misspelt_parameter_is_rejected_before_any_case_runs() {
+    let dir = scratch("bad");
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        STUDY.replace(
+            "[[axis]]\nkind = \"disruption\"\nfamilies = [\"microtubule\"]",
+            "[[axis]]\nkind = \"grid\"\nparameter = \"cell.cytoplasm.shear_modulu\"\nvalues = [\"0.1 kPa\"]",
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = cellmech(&[
+        "study",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("shear_modulu") && err.contains("shear_modulus"),
+        "{err}"
+    );
+    assert!(!out
+        .join("cases")
+        .join("shear_modulu-0p1kPa")
+        .join("record.json")
+        .exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_built_in_studies_list_and_expand() {
+    let o = cellmech(&["study", "--list"]);
+    assert!(o.status.success());
+    let list = String::from_utf8_lossy(&o.stdout);
+    assert!(list.contains("suspended-tension-disruption"));
+    let o = cellmech(&["study", "suspended-tension-disruption", "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cases: Vec<String> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .filter(|l| !l.starts_with(' '))
+        .map(String::from)
+        .collect();
+    assert_eq!(
+        cases,
+        [
+            "control",
+            "no-actin",
+            "no-microtubule",
+            "no-intermediate",
+            "no-actin-microtubule",
+            "no-actin-intermediate",
+            "no-microtubule-intermediate",
+            "no-actin-microtubule-intermediate"
+        ]
+    );
+    let o = cellmech(&["study", "suspended-tension-modulus", "--dry-run"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    // Continuum moduli are factors of the base's value, written with their unit.
+    assert!(
+        text.contains("cell.cytoplasm.shear_modulus = \"0.085 kPa\""),
+        "{text}"
+    );
+    assert!(
+        text.contains("families.microtubule.modulus_scale = 1.5"),
+        "{text}"
+    );
+    assert_eq!(text.lines().filter(|l| !l.starts_with(' ')).count(), 13);
+}

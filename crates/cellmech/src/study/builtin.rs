@@ -1,0 +1,57 @@
+//! The built-in studies (`cellmech study --list`): the published batteries of the
+//! suspended cell. Their text is in `studies/*.toml` of the repository.
+
+/// A built-in study.
+#[derive(Debug, Clone, Copy)]
+pub struct BuiltinStudy {
+    /// Name (`cellmech study NAME`).
+    pub name: &'static str,
+    /// One line on what it shows.
+    pub summary: &'static str,
+    /// The study file.
+    pub text: &'static str,
+}
+
+/// Every built-in study.
+pub const BUILTIN: &[BuiltinStudy] = &[
+    BuiltinStudy {
+        name: "suspended-tension-disruption",
+        summary: "tension to 6.3 um with every combination of AF, MT and IF removed (8 cases)",
+        text: include_str!("../../../../studies/suspended-tension-disruption.toml"),
+    },
+    BuiltinStudy {
+        name: "suspended-compression-disruption",
+        summary: "compression to 50 % with every combination of AF, MT and IF removed (8 cases)",
+        text: include_str!("../../../../studies/suspended-compression-disruption.toml"),
+    },
+    BuiltinStudy {
+        name: "suspended-tension-modulus",
+        summary: "tension to 6.3 um with each component's modulus at 50 % and 150 % (13 cases)",
+        text: include_str!("../../../../studies/suspended-tension-modulus.toml"),
+    },
+    BuiltinStudy {
+        name: "suspended-compression-modulus",
+        summary: "compression to 50 % with each component's modulus at 50 % and 150 % (13 cases)",
+        text: include_str!("../../../../studies/suspended-compression-modulus.toml"),
+    },
+    BuiltinStudy {
+        name: "suspended-tension-thickness",
+        summary: "tension to 6.3 um with the cell membrane half and twice as thick (3 cases)",
+        text: include_str!("../../../../studies/suspended-tension-thickness.toml"),
+    },
+    BuiltinStudy {
+        name: "suspended-tension-compressibility",
+        summary: "tension to 6.3 um with compressible cytoplasm and nucleus (nu 0.3) (2 cases)",
+        text: include_str!("../../../../studies/suspended-tension-compressibility.toml"),
+    },
+    BuiltinStudy {
+        name: "suspended-tension-coupling",
+        summary: "tension to 6.3 um: each cytoskeleton coupling mode x the 8 disruption models",
+        text: include_str!("../../../../studies/suspended-tension-coupling.toml"),
+    },
+];
+
+/// The built-in study with this name.
+pub fn find(name: &str) -> Option<&'static BuiltinStudy> {
+    BUILTIN.iter().find(|b| b.name == name)
+}

@@ -1,0 +1,255 @@
+//! Running a study's cases: each in its own folder, ending with a completion record written
+//! atomically; a rerun skips recorded cases and redoes interrupted ones. Cases run in
+//! parallel (`jobs`) and split into stable shards for a cluster's job array.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use cellmech_fem::solve::NullObserver;
+use serde::{Deserialize, Serialize};
+
+use super::spec::{Case, StudyError, StudySpec};
+
+/// Name of a case's completion record.
+pub const RECORD: &str = "record.json";
+/// Name of a case's scenario file.
+pub const CASE_FILE: &str = "case.toml";
+
+/// How to run a study.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    /// Output directory (cases go to `OUT/cases/NAME`).
+    pub out: PathBuf,
+    /// Cases run at once (≥ 1).
+    pub jobs: usize,
+    /// Solver threads per case (0: the machine's cores divided by `jobs`, at least 1).
+    pub threads_per_case: usize,
+    /// Run only shard `k` of `n` (0-based): a stable subset by case name.
+    pub shard: Option<(usize, usize)>,
+}
+
+/// A point of a case's test curve (for the overlaid curves).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct CurvePoint {
+    /// Elongation or plate travel from the reference state (µm).
+    pub displacement_um: f64,
+    /// Force on the moving tool (nN).
+    pub force_nn: f64,
+}
+
+/// What one case did: written to `record.json` when the case has finished (converged to
+/// the end, or stopped with a reason).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct CaseRecord {
+    /// Case name.
+    pub name: String,
+    /// Member label on every axis.
+    pub labels: Vec<String>,
+    /// Keys the case sets, as `key = value`.
+    pub set: Vec<String>,
+    /// `completed` or `failed`.
+    pub status: String,
+    /// Why it failed.
+    pub error: Option<String>,
+    /// Seed of the case's cell.
+    pub seed: Option<u64>,
+    /// Force at the last converged point (nN).
+    pub force_nn: Option<f64>,
+    /// Displacement at the last converged point (µm).
+    pub displacement_um: Option<f64>,
+    /// Nucleus max principal log strain at the last point.
+    pub nucleus_strain: Option<f64>,
+    /// Compression: (deformation, force nN) at each target.
+    pub at_deformations: Vec<(f64, f64)>,
+    /// Newton iterations over all steps.
+    pub iterations: usize,
+    /// Numeric factorisations.
+    pub factorizations: usize,
+    /// Wall time of the case (s).
+    pub wall_time_s: f64,
+    /// The test curve.
+    pub curve: Vec<CurvePoint>,
+}
+
+/// What happened to one case in this invocation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CaseEvent {
+    /// Already recorded: skipped.
+    Skipped,
+    /// Run now and recorded.
+    Ran,
+}
+
+/// Stable shard of a case name (FNV-1a), so a case stays in its shard when cases are added.
+pub fn shard_of(name: &str, shards: usize) -> usize {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for b in name.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    (h % shards.max(1) as u64) as usize
+}
+
+/// The folder of a case.
+pub fn case_dir(out: &Path, name: &str) -> PathBuf {
+    out.join("cases").join(name)
+}
+
+/// Reads a case's record, if it has one that parses.
+pub fn read_record(dir: &Path) -> Option<CaseRecord> {
+    let text = std::fs::read_to_string(dir.join(RECORD)).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+/// Checks every case's scenario (writing nothing): unknown keys and bad values are reported
+/// before any case runs.
+pub fn check_cases(spec: &StudySpec, cases: &[Case]) -> Result<(), StudyError> {
+    for case in cases {
+        let text = spec.case_document(case)?;
+        crate::scenario::parse(&text, &format!("case `{}`", case.name), &spec.base_dir).map_err(
+            |e| StudyError::Case {
+                case: case.name.clone(),
+                message: e.to_string(),
+            },
+        )?;
+    }
+    Ok(())
+}
+
+/// Runs the selected cases (skipping recorded ones); `on_case` is told about each finished
+/// case (from any worker thread). Returns the records of the selected cases in case order.
+pub fn run_cases(
+    spec: &StudySpec,
+    cases: &[Case],
+    options: &StudyOptions,
+    on_case: &(dyn Fn(&CaseRecord, CaseEvent) + Sync),
+) -> Result<Vec<CaseRecord>, StudyError> {
+    check_cases(spec, cases)?;
+    let selected: Vec<&Case> = cases
+        .iter()
+        .filter(|c| options.shard.is_none_or(|(k, n)| shard_of(&c.name, n) == k))
+        .collect();
+    let jobs = options.jobs.max(1).min(selected.len().max(1));
+    let threads = if options.threads_per_case > 0 {
+        options.threads_per_case
+    } else {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        (cores / jobs).max(1)
+    };
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Result<CaseRecord, StudyError>>>> =
+        Mutex::new((0..selected.len()).map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                let Some(case) = selected.get(i) else {
+                    break;
+                };
+                let result = run_case(spec, case, &options.out, threads);
+                if let Ok((record, event)) = &result {
+                    on_case(record, *event);
+                }
+                results.lock().expect("no worker panics holding the lock")[i] =
+                    Some(result.map(|(r, _)| r));
+            });
+        }
+    });
+    results
+        .into_inner()
+        .expect("no worker panicked")
+        .into_iter()
+        .map(|r| r.expect("every selected case ran"))
+        .collect()
+}
+
+/// Runs one case unless it is recorded. A case folder without a record is the remains of
+/// an interrupted run: it is emptied and the case run again.
+fn run_case(
+    spec: &StudySpec,
+    case: &Case,
+    out: &Path,
+    threads: usize,
+) -> Result<(CaseRecord, CaseEvent), StudyError> {
+    let dir = case_dir(out, &case.name);
+    if let Some(record) = read_record(&dir) {
+        return Ok((record, CaseEvent::Skipped));
+    }
+    let io = |e: std::io::Error| StudyError::Output(format!("{}: {e}", dir.display()));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(io)?;
+    }
+    std::fs::create_dir_all(&dir).map_err(io)?;
+    let text = spec.case_document(case)?;
+    cellmech_io::write_atomic(&dir.join(CASE_FILE), text.as_bytes())
+        .map_err(|e| StudyError::Output(e.to_string()))?;
+    let scenario = crate::scenario::parse(
+        &text,
+        &dir.join(CASE_FILE).display().to_string(),
+        &spec.base_dir,
+    )
+    .map_err(|e| StudyError::Case {
+        case: case.name.clone(),
+        message: e.to_string(),
+    })?;
+    let start = Instant::now();
+    let outcome = crate::run::run_with_threads(&scenario, &dir, &mut NullObserver, threads);
+    let (summary, error) = match outcome {
+        Ok(summary) => (Some(summary), None),
+        Err(crate::run::RunError::Analysis { error, summary, .. }) => {
+            (Some(*summary), Some(error.to_string()))
+        }
+        Err(other) => (None, Some(other.to_string())),
+    };
+    let protocol = summary.as_ref().and_then(|s| s.protocol.as_ref());
+    let last = protocol.and_then(|p| p.last);
+    let record = CaseRecord {
+        name: case.name.clone(),
+        labels: case.labels.clone(),
+        set: case.set.iter().map(|(k, v)| format!("{k} = {v}")).collect(),
+        status: if error.is_none() {
+            "completed"
+        } else {
+            "failed"
+        }
+        .into(),
+        error,
+        seed: summary.as_ref().and_then(|s| s.seed),
+        force_nn: last.map(|p| p.force_nn),
+        displacement_um: last.map(|p| p.displacement_um),
+        nucleus_strain: last.map(|p| p.nucleus_max_principal_log_strain),
+        at_deformations: protocol
+            .map(|p| {
+                p.at_deformations
+                    .iter()
+                    .map(|(d, p)| (*d, p.force_nn))
+                    .collect()
+            })
+            .unwrap_or_default(),
+        iterations: summary
+            .as_ref()
+            .map_or(0, |s| s.steps.iter().map(|s| s.iterations).sum()),
+        factorizations: summary
+            .as_ref()
+            .map_or(0, |s| s.solver_timings.factorizations),
+        wall_time_s: start.elapsed().as_secs_f64(),
+        curve: protocol
+            .map(|p| {
+                p.curve
+                    .iter()
+                    .map(|t| CurvePoint {
+                        displacement_um: t.displacement_um,
+                        force_nn: t.force_nn,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default(),
+    };
+    let json =
+        serde_json::to_string_pretty(&record).map_err(|e| StudyError::Output(e.to_string()))?;
+    cellmech_io::write_atomic(&dir.join(RECORD), json.as_bytes())
+        .map_err(|e| StudyError::Output(e.to_string()))?;
+    Ok((record, CaseEvent::Ran))
+}

@@ -1,0 +1,607 @@
+//! The study file: a base scenario and axes of variants, expanded into cases.
+//!
+//! ```toml
+//! title = "Disruption of the suspended cell in tension"
+//! base = "suspended-tension"          # a built-in example, or a scenario file (relative
+//!                                     # to the study file)
+//! [set]                               # optional: applied to every case (dotted keys)
+//! "cell.core_divisions" = 4
+//!
+//! [[axis]]
+//! kind = "disruption"                 # every subset of these families removed
+//! families = ["actin", "microtubule", "intermediate"]
+//!
+//! [[axis]]
+//! kind = "grid"                       # one declared parameter over a list of values
+//! parameter = "cell.microtubules.coupling"
+//! values = ["free", "embedded"]
+//! ```
+//!
+//! Axes combine as a cross product. Member 0 of every axis is its control (nothing
+//! removed, factor 1, the base value). `disruption`, `modulus`, `thickness` and
+//! `compressibility` axes are *compared*: a case's force is divided by the force of the
+//! case that has the control on every compared axis and the same members elsewhere. A
+//! `grid` or `cases` axis is context (e.g. the coupling mode), never normalised away.
+//!
+//! Every case is a complete scenario document (the base with the case's keys set), so it
+//! is checked by the same parser as `cellmech run`: an unknown or misspelt parameter is
+//! rejected, with the case, key and line, before anything runs.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Value;
+
+use crate::param::read_section;
+
+/// A study that cannot be read or expanded.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// The study file cannot be read.
+    #[error("{path}: {error}")]
+    Read {
+        /// File.
+        path: String,
+        /// Cause.
+        error: std::io::Error,
+    },
+    /// The study file is not what is expected.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// File (or built-in study name).
+        path: String,
+        /// What was expected and found, with the key.
+        message: String,
+    },
+    /// A case's scenario is rejected by the scenario parser.
+    #[error("case `{case}`: {message}")]
+    Case {
+        /// Case name.
+        case: String,
+        /// The scenario parser's message.
+        message: String,
+    },
+    /// Writing the study's files failed.
+    #[error("{0}")]
+    Output(String),
+}
+
+/// One member of an axis: a label and the keys it sets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Member {
+    /// Label used in case names (`control` for an axis's control).
+    pub label: String,
+    /// Dotted scenario keys and their values.
+    pub set: Vec<(String, Value)>,
+}
+
+/// One axis of variants.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// `disruption`, `modulus`, `thickness`, `compressibility`, `grid` or `cases`.
+    pub kind: String,
+    /// Whether a case's force is normalised by the control on this axis.
+    pub compared: bool,
+    /// Members; member 0 is the control.
+    pub members: Vec<Member>,
+}
+
+/// One case of the study: a member of every axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Case {
+    /// Unique, folder-safe name (member labels joined by `.`; `control` when all are).
+    pub name: String,
+    /// Member index on every axis.
+    pub members: Vec<usize>,
+    /// Member labels on every axis.
+    pub labels: Vec<String>,
+    /// Every key the case sets (study-wide first, then per axis).
+    pub set: Vec<(String, Value)>,
+}
+
+/// A parsed study.
+#[derive(Debug, Clone)]
+pub struct StudySpec {
+    /// Title.
+    pub title: String,
+    /// Where the study came from (file or `<built-in: NAME>`).
+    pub origin: String,
+    /// The base scenario document.
+    pub base: toml::Table,
+    /// Where the base came from.
+    pub base_origin: String,
+    /// Directory relative mesh paths of the base are resolved against.
+    pub base_dir: PathBuf,
+    /// Keys set in every case.
+    pub set: Vec<(String, Value)>,
+    /// The axes.
+    pub axes: Vec<Axis>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StudyFile {
+    title: Option<String>,
+    base: String,
+    #[serde(default)]
+    set: toml::Table,
+    #[serde(default)]
+    axis: Vec<AxisSection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisSection {
+    kind: String,
+    families: Option<Vec<String>>,
+    components: Option<Vec<String>>,
+    factors: Option<Vec<f64>>,
+    parameter: Option<String>,
+    values: Option<Vec<Value>>,
+    poisson_ratio: Option<f64>,
+    #[serde(default)]
+    case: Vec<CaseSection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CaseSection {
+    name: String,
+    #[serde(default)]
+    set: toml::Table,
+}
+
+/// The axis kinds a study file accepts.
+pub const AXIS_KINDS: [&str; 6] = [
+    "disruption",
+    "modulus",
+    "thickness",
+    "compressibility",
+    "grid",
+    "cases",
+];
+
+/// Continuum components whose modulus is a `[cell]` parameter (and that parameter).
+const CONTINUUM_MODULI: [(&str, &str); 2] = [
+    ("cytoplasm", "cytoplasm.shear_modulus"),
+    ("nucleus", "nucleus.shear_modulus"),
+];
+
+/// Reads a study file; `base` is a built-in example name or a path relative to the file.
+pub fn load(path: &Path) -> Result<StudySpec, StudyError> {
+    let text = std::fs::read_to_string(path).map_err(|error| StudyError::Read {
+        path: path.display().to_string(),
+        error,
+    })?;
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    parse(&text, &path.display().to_string(), &dir)
+}
+
+/// Parses study text (`origin` names it in messages; `dir` anchors a relative base path).
+pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<StudySpec, StudyError> {
+    let invalid = |message: String| StudyError::Invalid {
+        path: origin.into(),
+        message,
+    };
+    let file: StudyFile = toml::from_str(text).map_err(|e| invalid(e.to_string()))?;
+    let (base_text, base_origin, base_dir) = match crate::examples::find(&file.base) {
+        Some(example) => (
+            example.text.to_string(),
+            format!("<built-in: {}>", example.name),
+            PathBuf::from("."),
+        ),
+        None => {
+            let path = dir.join(&file.base);
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                invalid(format!(
+                    "`base`: expected a built-in example ({}) or a scenario file; cannot read {}: {e}",
+                    crate::examples::EXAMPLES
+                        .iter()
+                        .map(|e| e.name)
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    path.display()
+                ))
+            })?;
+            let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+            (text, path.display().to_string(), base_dir)
+        }
+    };
+    let base: toml::Table =
+        toml::from_str(&base_text).map_err(|e| invalid(format!("`base` {base_origin}: {e}")))?;
+    let set = flatten(&file.set);
+    // The base with the study-wide keys: what moduli and thicknesses are factors of.
+    let mut base_with_set = base.clone();
+    for (key, value) in &set {
+        set_dotted(&mut base_with_set, key, value.clone()).map_err(&invalid)?;
+    }
+    let axes = file
+        .axis
+        .iter()
+        .enumerate()
+        .map(|(i, a)| axis(a, i, &base_with_set).map_err(|m| invalid(format!("axis[{i}]: {m}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(StudySpec {
+        title: file
+            .title
+            .unwrap_or_else(|| format!("cellmech study of {base_origin}")),
+        origin: origin.into(),
+        base,
+        base_origin,
+        base_dir,
+        set,
+        axes,
+    })
+}
+
+/// Dotted keys of a (possibly nested) table: `{a = {b = 1}}` and `{"a.b" = 1}` both give
+/// `("a.b", 1)`.
+fn flatten(table: &toml::Table) -> Vec<(String, Value)> {
+    let mut out = Vec::new();
+    fn walk(prefix: &str, table: &toml::Table, out: &mut Vec<(String, Value)>) {
+        for (k, v) in table {
+            let key = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            match v {
+                Value::Table(t) => walk(&key, t, out),
+                other => out.push((key, other.clone())),
+            }
+        }
+    }
+    walk("", table, &mut out);
+    out
+}
+
+/// Sets `a.b.c = value` in `table`, creating tables on the way.
+pub fn set_dotted(table: &mut toml::Table, key: &str, value: Value) -> Result<(), String> {
+    let mut parts: Vec<&str> = key.split('.').collect();
+    let last = parts.pop().filter(|s| !s.is_empty()).ok_or_else(|| {
+        format!("expected a dotted parameter name such as \"cell.cytoplasm.shear_modulus\"; found \"{key}\"")
+    })?;
+    let mut t = table;
+    for p in parts {
+        let entry = t
+            .entry(p.to_string())
+            .or_insert_with(|| Value::Table(toml::Table::new()));
+        t = match entry {
+            Value::Table(inner) => inner,
+            _ => return Err(format!("`{key}`: `{p}` is a value, not a section")),
+        };
+    }
+    t.insert(last.to_string(), value);
+    Ok(())
+}
+
+fn label_of(value: &Value) -> String {
+    let raw = match value {
+        Value::String(s) => s.clone(),
+        other => other.to_string(),
+    };
+    sanitize(&raw)
+}
+
+/// A folder-safe label: ASCII letters, digits, `-`, `_`, `.` replaced by `p`.
+fn sanitize(raw: &str) -> String {
+    raw.chars()
+        .filter_map(|c| match c {
+            'a'..='z' | 'A'..='Z' | '0'..='9' | '-' | '_' => Some(c),
+            '.' => Some('p'),
+            ' ' => None,
+            '%' => Some('%'),
+            _ => Some('-'),
+        })
+        .collect()
+}
+
+fn factor_label(component: &str, factor: f64) -> String {
+    format!("{component}-x{}", sanitize(&format!("{factor}")))
+}
+
+fn control() -> Member {
+    Member {
+        label: "control".into(),
+        set: Vec::new(),
+    }
+}
+
+/// The base's value of a `[cell]` quantity (its declared default when the base omits it),
+/// in the table's unit.
+fn base_cell_number(base: &toml::Table, key: &str) -> Result<f64, String> {
+    let text = toml::to_string(base).map_err(|e| e.to_string())?;
+    let root = toml::de::DeTable::parse(&text).map_err(|e| e.to_string())?;
+    let values = read_section(
+        root.get_ref(),
+        &crate::cell::suspended::params::SUSPENDED_CELL,
+        &["model"],
+        &[],
+    )
+    .map_err(|e| format!("the base's [cell]: `{}`: {}", e.key, e.message))?;
+    Ok(values.number(key))
+}
+
+fn unit_of(key: &str) -> &'static str {
+    if key.ends_with("thickness") {
+        "um"
+    } else {
+        "kPa"
+    }
+}
+
+fn factors(a: &AxisSection) -> Result<Vec<f64>, String> {
+    let f = a.factors.clone().unwrap_or_else(|| vec![0.5, 1.5]);
+    if f.is_empty() || f.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+        return Err(format!("`factors`: expected factors > 0; found {f:?}"));
+    }
+    Ok(f)
+}
+
+fn axis(a: &AxisSection, _index: usize, base: &toml::Table) -> Result<Axis, String> {
+    let unexpected = |keys: &[(&str, bool)]| -> Result<(), String> {
+        for (k, present) in keys {
+            if *present {
+                return Err(format!("`{k}` does not apply to kind = \"{}\"", a.kind));
+            }
+        }
+        Ok(())
+    };
+    let mut members = vec![control()];
+    let compared = match a.kind.as_str() {
+        "disruption" => {
+            unexpected(&[
+                ("components", a.components.is_some()),
+                ("factors", a.factors.is_some()),
+                ("parameter", a.parameter.is_some()),
+                ("values", a.values.is_some()),
+            ])?;
+            let families = a.families.clone().unwrap_or_else(|| {
+                vec!["actin".into(), "microtubule".into(), "intermediate".into()]
+            });
+            if families.is_empty() || families.len() > 6 {
+                return Err(format!(
+                    "`families`: expected 1 to 6 families; found {}",
+                    families.len()
+                ));
+            }
+            // Every non-empty subset, smallest first, in the listed order.
+            let n = families.len();
+            let mut subsets: Vec<u32> = (1..(1u32 << n)).collect();
+            subsets.sort_by_key(|&m| {
+                (
+                    m.count_ones(),
+                    (0..n).filter(|i| m & (1 << i) != 0).collect::<Vec<_>>(),
+                )
+            });
+            for mask in subsets {
+                let removed: Vec<&String> = (0..n)
+                    .filter(|i| mask & (1 << i) != 0)
+                    .map(|i| &families[i])
+                    .collect();
+                members.push(Member {
+                    label: format!(
+                        "no-{}",
+                        removed
+                            .iter()
+                            .map(|f| f.as_str())
+                            .collect::<Vec<_>>()
+                            .join("-")
+                    ),
+                    set: removed
+                        .iter()
+                        .map(|f| (format!("families.{f}.enabled"), Value::Boolean(false)))
+                        .collect(),
+                });
+            }
+            true
+        }
+        "modulus" => {
+            unexpected(&[
+                ("families", a.families.is_some()),
+                ("parameter", a.parameter.is_some()),
+                ("values", a.values.is_some()),
+            ])?;
+            let components = a.components.clone().unwrap_or_else(|| {
+                [
+                    "cytoplasm",
+                    "nucleus",
+                    "membrane",
+                    "actin",
+                    "microtubule",
+                    "intermediate",
+                ]
+                .map(String::from)
+                .to_vec()
+            });
+            for c in &components {
+                for &f in &factors(a)? {
+                    let set = match CONTINUUM_MODULI.iter().find(|(name, _)| name == c) {
+                        Some((_, key)) => {
+                            let v = base_cell_number(base, key)?;
+                            vec![(
+                                format!("cell.{key}"),
+                                Value::String(format!("{} {}", v * f, unit_of(key))),
+                            )]
+                        }
+                        None => vec![(format!("families.{c}.modulus_scale"), Value::Float(f))],
+                    };
+                    members.push(Member {
+                        label: factor_label(c, f),
+                        set,
+                    });
+                }
+            }
+            true
+        }
+        "thickness" => {
+            unexpected(&[
+                ("families", a.families.is_some()),
+                ("components", a.components.is_some()),
+                ("parameter", a.parameter.is_some()),
+                ("values", a.values.is_some()),
+            ])?;
+            let key = "membrane.thickness";
+            let v = base_cell_number(base, key)?;
+            for &f in &factors(a)? {
+                members.push(Member {
+                    label: factor_label("membrane-thickness", f),
+                    set: vec![(
+                        format!("cell.{key}"),
+                        Value::String(format!("{} um", v * f)),
+                    )],
+                });
+            }
+            true
+        }
+        "compressibility" => {
+            let nu = a.poisson_ratio.unwrap_or(0.3);
+            if !(nu > -1.0 && nu < 0.5) {
+                return Err(format!(
+                    "`poisson_ratio`: expected a value in (-1, 0.5); found {nu}"
+                ));
+            }
+            members.push(Member {
+                label: format!("compressible-nu{}", sanitize(&format!("{nu}"))),
+                set: ["cell.cytoplasm.poisson_ratio", "cell.nucleus.poisson_ratio"]
+                    .iter()
+                    .map(|k| (k.to_string(), Value::Float(nu)))
+                    .collect(),
+            });
+            true
+        }
+        "grid" => {
+            let parameter = a
+                .parameter
+                .clone()
+                .ok_or("kind = \"grid\" needs `parameter` (a dotted scenario key)")?;
+            let values = a.values.clone().unwrap_or_default();
+            if values.is_empty() {
+                return Err("kind = \"grid\" needs a non-empty `values` list".into());
+            }
+            // A grid has no separate control: its first value is member 0.
+            members.clear();
+            for v in values {
+                members.push(Member {
+                    label: format!(
+                        "{}-{}",
+                        sanitize(parameter.rsplit('.').next().unwrap_or("")),
+                        label_of(&v)
+                    ),
+                    set: vec![(parameter.clone(), v)],
+                });
+            }
+            false
+        }
+        "cases" => {
+            if a.case.is_empty() {
+                return Err(
+                    "kind = \"cases\" needs [[axis.case]] entries with `name` and `set`".into(),
+                );
+            }
+            members.clear();
+            for c in &a.case {
+                members.push(Member {
+                    label: sanitize(&c.name),
+                    set: flatten(&c.set),
+                });
+            }
+            false
+        }
+        other => {
+            return Err(format!(
+                "`kind`: expected one of {}; found \"{other}\"",
+                AXIS_KINDS.join(", ")
+            ))
+        }
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(m) = members.iter().find(|m| !seen.insert(m.label.clone())) {
+        return Err(format!("two members are both labelled `{}`", m.label));
+    }
+    Ok(Axis {
+        kind: a.kind.clone(),
+        compared,
+        members,
+    })
+}
+
+impl StudySpec {
+    /// Every case: the cross product of the axes, in order (the first axis varies slowest).
+    pub fn cases(&self) -> Vec<Case> {
+        let mut cases = vec![Case {
+            name: String::new(),
+            members: Vec::new(),
+            labels: Vec::new(),
+            set: self.set.clone(),
+        }];
+        for axis in &self.axes {
+            let mut next = Vec::with_capacity(cases.len() * axis.members.len());
+            for case in &cases {
+                for (m, member) in axis.members.iter().enumerate() {
+                    let mut c = case.clone();
+                    c.members.push(m);
+                    c.labels.push(member.label.clone());
+                    c.set.extend(member.set.iter().cloned());
+                    next.push(c);
+                }
+            }
+            cases = next;
+        }
+        for c in &mut cases {
+            let shown: Vec<&str> = c
+                .labels
+                .iter()
+                .map(String::as_str)
+                .filter(|l| *l != "control")
+                .collect();
+            c.name = if shown.is_empty() {
+                "control".into()
+            } else {
+                shown.join(".")
+            };
+        }
+        cases
+    }
+
+    /// The scenario document of a case.
+    pub fn case_document(&self, case: &Case) -> Result<String, StudyError> {
+        let mut doc = self.base.clone();
+        for (key, value) in &case.set {
+            set_dotted(&mut doc, key, value.clone()).map_err(|message| StudyError::Case {
+                case: case.name.clone(),
+                message,
+            })?;
+        }
+        let title = doc
+            .get("title")
+            .and_then(Value::as_str)
+            .unwrap_or("cellmech case")
+            .to_string();
+        doc.insert(
+            "title".into(),
+            Value::String(format!("{title} [{}]", case.name)),
+        );
+        let header = format!(
+            "# Case `{}` of the study \"{}\" ({}), base {}.\n# Re-run it alone with `cellmech run case.toml`.\n",
+            case.name, self.title, self.origin, self.base_origin
+        );
+        let body = toml::to_string(&doc).map_err(|e| StudyError::Case {
+            case: case.name.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(header + &body)
+    }
+
+    /// The index of the case that `case` is compared with: the control on every compared
+    /// axis, the same member on the others.
+    pub fn control_of(&self, cases: &[Case], case: &Case) -> Option<usize> {
+        let wanted: Vec<usize> = self
+            .axes
+            .iter()
+            .zip(&case.members)
+            .map(|(a, &m)| if a.compared { 0 } else { m })
+            .collect();
+        cases.iter().position(|c| c.members == wanted)
+    }
+}
