@@ -152,6 +152,31 @@ fn a_study_killed_mid_case_resumes_and_matches_an_uninterrupted_run() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(results(&merged), results(&clean));
+    // The documented Slurm array script: two tasks into one shared folder, then collect.
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../studies/slurm-array.sh");
+    let shared = dir.join("slurm");
+    for k in 0..2 {
+        let o = Command::new("bash")
+            .arg(&script)
+            .args([study, shared.to_str().unwrap()])
+            .env("CELLMECH", env!("CARGO_BIN_EXE_cellmech"))
+            .env("SLURM_ARRAY_TASK_ID", k.to_string())
+            .env("SLURM_ARRAY_TASK_COUNT", "2")
+            .env("SLURM_CPUS_PER_TASK", "1")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let o = cellmech(&[
+        "study",
+        study,
+        "--quiet",
+        "--collect",
+        "--out",
+        shared.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(results(&shared), results(&clean));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
