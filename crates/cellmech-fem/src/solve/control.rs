@@ -21,6 +21,25 @@ pub struct Convergence {
     pub max_augmentations: usize,
     /// Line search is tried when |R(u+δ)·δ| > this fraction of |R(u)·δ| (0 disables it).
     pub line_search_threshold: f64,
+    /// How the iterations after the predictor get their direction.
+    pub method: IterationMethod,
+}
+
+/// How Newton's corrections after the first are computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IterationMethod {
+    /// Full Newton: tangent assembled and factorised at every iteration.
+    Newton,
+    /// Quasi-Newton (BFGS, as FEBio's default): the increment's first factorisation is
+    /// kept and corrected by up to `max_updates` rank-two updates (the limited-memory
+    /// two-loop recursion); the tangent is reformed and refactorised when the updates run
+    /// out, the residual grows, or an update would lose positive curvature. The
+    /// convergence criteria are the same.
+    Bfgs {
+        /// Updates before a reform.
+        max_updates: usize,
+    },
 }
 
 impl Default for Convergence {
@@ -32,6 +51,7 @@ impl Default for Convergence {
             divergence_ratio: 1e6,
             max_augmentations: 50,
             line_search_threshold: 0.9,
+            method: IterationMethod::Newton,
         }
     }
 }

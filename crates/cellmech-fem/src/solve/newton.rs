@@ -6,7 +6,7 @@
 //! the prescribed DOFs fixed, then search along δ when the residual's projection on δ has
 //! not dropped enough. Convergence needs both the residual and the energy criterion.
 
-use super::control::{Convergence, StepControl};
+use super::control::{Convergence, IterationMethod, StepControl};
 use super::error::FailureReason;
 use super::observer::Observer;
 use super::problem::Problem;
@@ -45,6 +45,10 @@ fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
         .map(|(x, _)| x * x)
         .sum::<f64>()
         .sqrt()
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 fn dot_free(a: &[f64], b: &[f64], prescribed: &[bool]) -> f64 {
@@ -104,6 +108,25 @@ impl Problem {
             None => self.factorize_and_solve()?,
         }
         let energy0 = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+        let quasi_newton = match conv.method {
+            IterationMethod::Newton => 0,
+            IterationMethod::Bfgs { max_updates } => max_updates,
+        };
+        // Quasi-Newton state: the residual before the last step, its norm, and whether the
+        // tangent must be reformed at the next iteration.
+        self.work.updates = 0;
+        if quasi_newton > 0 {
+            self.work.r_prev.resize(n, 0.0);
+            for d in 0..n {
+                self.work.r_prev[d] = if self.prescribed[d] {
+                    0.0
+                } else {
+                    self.work.rhs[d]
+                };
+            }
+        }
+        let mut previous_norm = f64::INFINITY;
+        let mut reform = false;
         let mut step_length = 1.0;
         let mut augmentations = 0;
         let mut round_start = 0;
@@ -113,9 +136,9 @@ impl Problem {
                 for d in 0..n {
                     self.u[d] += self.work.delta[d];
                 }
-                self.assemble_full(false)?;
+                self.evaluate(quasi_newton == 0)?;
             } else {
-                step_length = self.line_search(conv)?;
+                step_length = self.line_search(conv, quasi_newton == 0)?;
             }
             let (residual_ratio, energy_ratio, scale) =
                 self.measure(&mut scale_floor, step_length, energy0);
@@ -153,8 +176,9 @@ impl Problem {
                             )));
                         }
                         // The terms changed: re-evaluate here and continue Newton.
-                        self.assemble_full(false)?;
+                        self.evaluate(quasi_newton == 0)?;
                         round_start = iteration;
+                        reform = true;
                     }
                 }
             } else if r0 > 0.0 && residual_ratio * scale > conv.divergence_ratio * r0 {
@@ -176,9 +200,123 @@ impl Problem {
                     self.f_ext[d] - self.residual[d]
                 };
             }
-            self.factorize_and_solve()?;
+            if quasi_newton == 0 {
+                self.factorize_and_solve()?;
+                continue;
+            }
+            // Quasi-Newton: book the last step as an update, then reuse the factorisation
+            // unless the updates ran out, the residual grew or curvature was lost.
+            let residual_norm = norm_where(&self.work.rhs, &self.prescribed, false);
+            let curvature = self.book_update(step_length);
+            if reform
+                || !curvature
+                || self.work.updates >= quasi_newton
+                || residual_norm > previous_norm
+            {
+                self.assemble_full(false)?;
+                self.factorize_and_solve()?;
+                self.work.updates = 0;
+                reform = false;
+            } else {
+                self.quasi_newton_direction()?;
+            }
+            previous_norm = residual_norm;
+            self.work.r_prev.copy_from_slice(&self.work.rhs);
         }
         unreachable!("the loop only ends by returning")
+    }
+
+    /// Stores the last step `s·δ` and the residual change it caused as a BFGS update pair
+    /// (`r_prev` holds the residual before the step, `rhs` after). False when the pair
+    /// has no positive curvature (then the caller reforms).
+    fn book_update(&mut self, step_length: f64) -> bool {
+        let n = self.u.len();
+        let k = self.work.updates;
+        if self.work.qn_s.len() <= k {
+            self.work.qn_s.push(vec![0.0; n]);
+            self.work.qn_y.push(vec![0.0; n]);
+            self.work.qn_rho.push(0.0);
+            self.work.qn_alpha.push(0.0);
+        }
+        let (mut sy, mut ss, mut yy) = (0.0, 0.0, 0.0);
+        for d in 0..n {
+            let step = step_length * self.work.delta[d];
+            let change = if self.prescribed[d] {
+                0.0
+            } else {
+                self.work.r_prev[d] - self.work.rhs[d]
+            };
+            self.work.qn_s[k][d] = step;
+            self.work.qn_y[k][d] = change;
+            sy += step * change;
+            ss += step * step;
+            yy += change * change;
+        }
+        if !(sy > 1e-12 * (ss * yy).sqrt()) {
+            return false;
+        }
+        self.work.qn_rho[k] = 1.0 / sy;
+        self.work.updates = k + 1;
+        true
+    }
+
+    /// δ ≈ K⁻¹·rhs from the kept factorisation and the stored updates (limited-memory
+    /// BFGS two-loop recursion, with the factorised tangent as the initial inverse).
+    fn quasi_newton_direction(&mut self) -> Result<(), FailureReason> {
+        let n = self.u.len();
+        let k = self.work.updates;
+        let work = &mut self.work;
+        work.delta.copy_from_slice(&work.rhs);
+        for i in (0..k).rev() {
+            let alpha = work.qn_rho[i] * dot(&work.qn_s[i], &work.delta);
+            work.qn_alpha[i] = alpha;
+            for d in 0..n {
+                work.delta[d] -= alpha * work.qn_y[i][d];
+            }
+        }
+        let start = Instant::now();
+        let (solver, delta) = (&mut self.solver, &mut self.work.delta);
+        self.pool.install(|| solver.solve_in_place(delta))?;
+        self.timings.solve_s += start.elapsed().as_secs_f64();
+        self.expand_correction();
+        let work = &mut self.work;
+        for i in 0..k {
+            let beta = work.qn_rho[i] * dot(&work.qn_y[i], &work.delta);
+            let c = work.qn_alpha[i] - beta;
+            for d in 0..n {
+                work.delta[d] += c * work.qn_s[i][d];
+            }
+        }
+        if self.work.delta.iter().any(|x| !x.is_finite()) {
+            return Err(FailureReason::NotFinite { iteration: 0 });
+        }
+        Ok(())
+    }
+
+    /// Residual (and tangent when asked) at the current `u`.
+    fn evaluate(&mut self, with_tangent: bool) -> Result<(), FailureReason> {
+        if with_tangent {
+            return self.assemble_full(false);
+        }
+        let start = Instant::now();
+        let (assembler, terms, u, prescribed) =
+            (&self.assembler, &self.terms, &self.u, &self.prescribed);
+        let output = AssemblyOutput {
+            residual: &mut self.residual,
+            magnitude: Some(&mut self.work.magnitude),
+            tangent: None,
+            predictor: None,
+        };
+        let condensation = &mut self.condensation;
+        self.energy = self.pool.install(|| match condensation {
+            Some(c) => c.assemble(assembler, terms, u, prescribed, output),
+            None => assembler.assemble(terms, u, prescribed, output),
+        })?;
+        if let Some(st) = &self.stabilizer {
+            st.add_forces(&self.u, &mut self.residual);
+        }
+        self.timings.residual_only_s += start.elapsed().as_secs_f64();
+        Ok(())
     }
 
     /// Lets every term augment; `None` when all are settled, else the first message.
@@ -357,7 +495,11 @@ impl Problem {
     /// Chooses the step length along δ, moves `u` there and assembles residual and tangent.
     /// Full step unless it inverts an element (then halve) or the projection g(s) = δ·R(u+sδ)
     /// stays above `threshold·g(0)` (then secant steps on g, keeping the best |g|).
-    fn line_search(&mut self, conv: &Convergence) -> Result<f64, FailureReason> {
+    fn line_search(
+        &mut self,
+        conv: &Convergence,
+        with_tangent: bool,
+    ) -> Result<f64, FailureReason> {
         let g0 = self.projection(&self.residual);
         let mut s = 1.0;
         let mut g1 = loop {
@@ -402,7 +544,7 @@ impl Problem {
         for d in 0..self.u.len() {
             self.u[d] += s * self.work.delta[d];
         }
-        self.assemble_full(false)?;
+        self.evaluate(with_tangent)?;
         Ok(s)
     }
 }

@@ -26,6 +26,15 @@ pub(super) struct Work {
     pub history: Vec<f64>,
     /// Force scale of the last measured iteration (nN).
     pub scale: f64,
+    /// Quasi-Newton: the residual before the last step (free DOFs).
+    pub r_prev: Vec<f64>,
+    /// Quasi-Newton update pairs (steps, residual changes), 1/(s·y), and the two-loop's α.
+    pub qn_s: Vec<Vec<f64>>,
+    pub qn_y: Vec<Vec<f64>>,
+    pub qn_rho: Vec<f64>,
+    pub qn_alpha: Vec<f64>,
+    /// Update pairs in use.
+    pub updates: usize,
 }
 
 /// Wall-clock time spent in the hot parts of the solver, summed over the problem's life.
@@ -165,6 +174,12 @@ impl Problem {
                 magnitude: vec![0.0; n],
                 history: Vec::with_capacity(64),
                 scale: 0.0,
+                r_prev: Vec::new(),
+                qn_s: Vec::new(),
+                qn_y: Vec::new(),
+                qn_rho: Vec::new(),
+                qn_alpha: Vec::new(),
+                updates: 0,
             },
             total_time: 0.0,
             steps_done: 0,
