@@ -340,8 +340,10 @@ mod tests {
 
     #[test]
     fn ids_count_disabled_groups_and_elements_are_located_in_the_family_term() {
-        let mut mesh = Mesh::default();
-        mesh.nodes = (0..10).map(|i| [i as f64, 0.0, 0.0]).collect();
+        let mesh = Mesh {
+            nodes: (0..10).map(|i| [i as f64, 0.0, 0.0]).collect(),
+            ..Mesh::default()
+        };
         let a = group("a", "cables", vec![[0, 1], [1, 2], [4, 5]], false);
         let mut off = group("off", "rods", vec![[5, 6]], true);
         off.enabled = false;
