@@ -39,9 +39,30 @@ pub enum CsvError {
         /// The offending name.
         name: String,
     },
+    /// A text cell is empty or contains a comma, quote or line break.
+    #[error("{}: invalid text cell '{text}' (must be non-empty, without , \" or line breaks)", path.display())]
+    BadText {
+        /// The table file.
+        path: PathBuf,
+        /// The offending text.
+        text: String,
+    },
     /// Writing failed.
     #[error(transparent)]
     Write(#[from] WriteError),
+}
+
+/// One cell of a [`CurveWriter::push_records`] row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CsvCell<'a> {
+    /// A number, written like [`CurveWriter::push_row`] writes it.
+    Number(f64),
+    /// An integer (ids, node numbers, counts, 0/1 flags).
+    Integer(i64),
+    /// A word (a family name, a state); no commas, quotes or line breaks.
+    Text(&'a str),
+    /// Nothing (not applicable).
+    Empty,
 }
 
 impl CurveWriter {
@@ -88,6 +109,54 @@ impl CurveWriter {
             self.text.push_str(&format!("{v:?}"));
         }
         self.text.push('\n');
+        if let Err(e) = write_atomic(&self.path, self.text.as_bytes()) {
+            self.text.truncate(before);
+            return Err(e.into());
+        }
+        Ok(())
+    }
+
+    /// Appends several rows of mixed cells (words, integers, numbers, empty cells) and
+    /// persists the file once: a table with many rows per increment (e.g. one per filament)
+    /// costs one atomic rewrite per increment. Nothing is appended on error.
+    pub fn push_records(&mut self, rows: &[Vec<CsvCell<'_>>]) -> Result<(), CsvError> {
+        use std::fmt::Write as _;
+        let before = self.text.len();
+        for row in rows {
+            if row.len() != self.columns {
+                self.text.truncate(before);
+                return Err(CsvError::RowLength {
+                    path: self.path.clone(),
+                    expected: self.columns,
+                    found: row.len(),
+                });
+            }
+            for (i, cell) in row.iter().enumerate() {
+                if i > 0 {
+                    self.text.push(',');
+                }
+                match *cell {
+                    CsvCell::Number(v) => {
+                        let _ = write!(self.text, "{v:?}");
+                    }
+                    CsvCell::Integer(v) => {
+                        let _ = write!(self.text, "{v}");
+                    }
+                    CsvCell::Text(t) => {
+                        if t.is_empty() || t.contains([',', '"', '\n', '\r']) {
+                            self.text.truncate(before);
+                            return Err(CsvError::BadText {
+                                path: self.path.clone(),
+                                text: t.to_string(),
+                            });
+                        }
+                        self.text.push_str(t);
+                    }
+                    CsvCell::Empty => {}
+                }
+            }
+            self.text.push('\n');
+        }
         if let Err(e) = write_atomic(&self.path, self.text.as_bytes()) {
             self.text.truncate(before);
             return Err(e.into());
@@ -143,5 +212,41 @@ mod tests {
             std::fs::read_to_string(&path).unwrap(),
             "a_um,b_nN\n1.0,NaN\n"
         );
+    }
+
+    #[test]
+    fn records_of_mixed_cells_are_written_at_once_or_not_at_all() {
+        let dir = scratch_dir("csv-records");
+        let path = dir.join("t.csv");
+        let mut w = CurveWriter::create(&path, &["family", "id", "force_nN", "fa_node"]).unwrap();
+        let rows = vec![
+            vec![
+                CsvCell::Text("actin"),
+                CsvCell::Integer(3),
+                CsvCell::Number(0.5),
+                CsvCell::Integer(17),
+            ],
+            vec![
+                CsvCell::Text("cables"),
+                CsvCell::Integer(4),
+                CsvCell::Number(-1e-3),
+                CsvCell::Empty,
+            ],
+        ];
+        w.push_records(&rows).unwrap();
+        let expected = "family,id,force_nN,fa_node\nactin,3,0.5,17\ncables,4,-0.001,\n";
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), expected);
+        let bad = vec![
+            rows[0].clone(),
+            vec![
+                CsvCell::Text("a,b"),
+                CsvCell::Empty,
+                CsvCell::Empty,
+                CsvCell::Empty,
+            ],
+        ];
+        assert!(w.push_records(&bad).is_err());
+        assert!(w.push_records(&[vec![CsvCell::Empty]]).is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), expected);
     }
 }

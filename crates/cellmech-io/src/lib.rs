@@ -28,7 +28,7 @@ pub mod vtu;
 pub use abaqus::{parse_abaqus, read_abaqus, AbaqusDeck, ElementRef};
 pub use atomic::{write_atomic, write_atomic_with};
 pub use bars::{plot_bars, BarSpec};
-pub use csv_out::{CsvError, CurveWriter};
+pub use csv_out::{CsvCell, CsvError, CurveWriter};
 pub use error::{ReadError, WriteError};
 pub use gmsh::{parse_gmsh, read_gmsh};
 pub use json_out::{write_json_atomic, JsonError};

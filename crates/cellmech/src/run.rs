@@ -46,6 +46,9 @@ pub struct RunSummary {
     pub solver_timings: Timings,
     /// Every `curve.csv` column at the last converged increment (names carry units).
     pub final_values: BTreeMap<String, f64>,
+    /// Every filament at the last converged increment, and the counts per family (`None`
+    /// for a model without filaments).
+    pub filaments: Option<crate::output::filaments::FilamentSnapshot>,
     /// The scenario as parsed (inputs echoed).
     pub input: toml::Table,
     /// Files written, relative to the output directory.
@@ -165,6 +168,9 @@ pub fn run_with_threads(
         "convergence.csv".into(),
         "fields.pvd".into(),
     ];
+    if writer.last_filaments.is_some() {
+        files.push("filaments.csv".into());
+    }
     files.extend(crate::plots::plot_curves(scenario, &writer, out_dir).map_err(RunError::Output)?);
     // The last converged state as a picture (reference coordinates + displacement).
     let deformed: Vec<[f64; 3]> = {
@@ -239,6 +245,7 @@ pub fn run_with_threads(
                 .collect(),
             None => BTreeMap::new(),
         },
+        filaments: writer.last_filaments.clone(),
         input: scenario.echo.clone(),
         files,
     };

@@ -104,6 +104,7 @@ fn tension_test_stiffens_and_elongates_the_nucleus_along_the_stretch() {
     ] {
         assert!(dir.join(file).exists(), "{file}");
     }
+    assert_filament_outputs(&summary, &dir);
     eprintln!(
         "tension (448 hex8): F(6.3 um) = {:.2} nN, K = {:.3} kPa, nucleus aspect {:.4}, {:.1} s",
         last.force_nn,
@@ -236,4 +237,121 @@ fn impossible_geometry_and_protocols_are_rejected_before_solving() {
     let orphan = "[mesh]\nsource = \"sphere\"\nradius = \"5 um\"\n[[material]]\nelement_set = \"solid\"\nmodel = \"neo-hookean\"\nshear_modulus = \"1 kPa\"\npoisson_ratio = 0.3\n[protocol]\nkind = \"prestress\"\n";
     let e = parse(orphan, "orphan.toml", std::path::Path::new(".")).unwrap_err();
     assert!(e.to_string().contains("add a [cell]"), "{e}");
+}
+
+/// The suspended cell's filaments as filaments, not elements: 60 AFs between two FAs, 30 MTs
+/// of 8 beams ending on the 30 FAs, 60 IFs starting at an FA (two per FA); counts that add up
+/// to those totals in summary.json and curve.csv; one filaments.csv row per filament per
+/// state; `filament_id` on every line cell of the last VTU frame.
+fn assert_filament_outputs(summary: &RunSummary, dir: &std::path::Path) {
+    use cellmech::model::filaments::FilamentEnd;
+    let snap = summary.filaments.as_ref().expect("filament table");
+    assert_eq!(snap.family_names, ["actin", "microtubule", "intermediate"]);
+    let fv = &summary.final_values;
+    for (c, (total, end)) in snap.families.iter().zip([
+        (60, FilamentEnd::Both),
+        (30, FilamentEnd::End),
+        (60, FilamentEnd::Start),
+    ]) {
+        assert_eq!(c.filaments, total, "{c:?}");
+        assert_eq!(c.in_tension + c.in_compression + c.slack, total, "{c:?}");
+        let of: Vec<_> = snap
+            .filaments
+            .iter()
+            .filter(|r| r.family == c.family)
+            .collect();
+        assert_eq!(of.len(), total);
+        assert!(of
+            .iter()
+            .all(|r| r.fa_end == Some(end) && r.fa_node.is_some()));
+        // Every FA holds filaments of each family (an AF at both of its ends).
+        let fa_nodes: std::collections::BTreeSet<_> = of
+            .iter()
+            .flat_map(|r| match r.fa_end {
+                Some(FilamentEnd::Both) => vec![r.start_node, r.end_node],
+                _ => vec![r.fa_node.unwrap()],
+            })
+            .collect();
+        assert_eq!(fa_nodes.len(), 30, "{}: every FA", c.family);
+        let n = &c.family;
+        let sum: f64 = of.iter().map(|r| r.fa_force_nn.unwrap()).sum();
+        assert_eq!(fv[&format!("{n}_fa_force_sum_nN")], sum);
+        assert_eq!(c.fa_force_sum_nn, Some(sum));
+        for (k, v) in [
+            ("in_tension", c.in_tension),
+            ("in_compression", c.in_compression),
+            ("slack", c.slack),
+        ] {
+            assert_eq!(fv[&format!("{n}_filaments_{k}")], v as f64, "{n} {k}");
+        }
+    }
+    // One-element AFs: the FA-end forces are the element forces.
+    let af_sum = snap.families[0].fa_force_sum_nn.unwrap();
+    let af_mean = fv["actin_axial_force_mean_nN"];
+    assert!(
+        (af_sum - 60.0 * af_mean).abs() < 1e-12 * af_sum,
+        "{af_sum} vs {af_mean}"
+    );
+    let mts = &snap.families[1];
+    assert_eq!(
+        fv["microtubule_filaments_straight"],
+        mts.straight.unwrap() as f64
+    );
+    // Tension-only IFs far below their slack length carry exactly nothing.
+    assert_eq!(snap.families[2].slack, 60);
+    let csv = std::fs::read_to_string(dir.join("filaments.csv")).unwrap();
+    let curve = std::fs::read_to_string(dir.join("curve.csv")).unwrap();
+    assert_eq!(csv.lines().count() - 1, 150 * (curve.lines().count() - 1));
+    let last = (0..)
+        .map(|k| dir.join(format!("fields_{k:04}.vtu")))
+        .take_while(|p| p.exists())
+        .last()
+        .unwrap();
+    let vtu = std::fs::read_to_string(last).unwrap();
+    let ids = float64_array(&vtu, "filament_id");
+    let count = |id: f64| ids.iter().filter(|&&v| v == id).count();
+    assert_eq!(ids.iter().filter(|v| !v.is_nan()).count(), 60 + 240 + 60);
+    assert!((0..60).all(|id| count(id as f64) == 1), "AFs");
+    assert!((60..90).all(|id| count(id as f64) == 8), "MTs of 8 beams");
+    assert!((90..150).all(|id| count(id as f64) == 1), "IFs");
+    eprintln!(
+        "filaments at the last state: MTs in tension {}, compression {}, straight {}; \
+         AF FA-end force sum {af_sum:.3} nN; IFs slack {}",
+        mts.in_tension,
+        mts.in_compression,
+        mts.straight.unwrap(),
+        snap.families[2].slack
+    );
+}
+
+/// A Float64 DataArray of a binary VTU file (base64, UInt64 size header).
+fn float64_array(vtu: &str, name: &str) -> Vec<f64> {
+    let start = vtu.find(&format!("Name=\"{name}\"")).expect(name);
+    let open = start + vtu[start..].find('>').unwrap() + 1;
+    let close = open + vtu[open..].find('<').unwrap();
+    let text: Vec<u8> = vtu[open..close]
+        .bytes()
+        .filter(|c| !c.is_ascii_whitespace())
+        .collect();
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => c - b'A',
+        b'a'..=b'z' => c - b'a' + 26,
+        b'0'..=b'9' => c - b'0' + 52,
+        b'+' => 62,
+        _ => 63,
+    };
+    let mut bytes = Vec::new();
+    for chunk in text.chunks(4) {
+        let n = chunk.iter().filter(|&&c| c != b'=').count();
+        let bits = chunk
+            .iter()
+            .map(|&c| if c == b'=' { 0 } else { value(c) as u32 })
+            .fold(0u32, |acc, v| (acc << 6) | v);
+        let b = [(bits >> 16) as u8, (bits >> 8) as u8, bits as u8];
+        bytes.extend_from_slice(&b[..n - 1]);
+    }
+    bytes[8..]
+        .chunks(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect()
 }

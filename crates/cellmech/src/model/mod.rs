@@ -4,6 +4,7 @@
 //! engine problem (DOFs, terms, steps, curve DOFs). Nothing here imports `scenario`,
 //! `cell` or `protocol`.
 
+pub mod filaments;
 mod spec;
 pub mod structures;
 pub mod tools;
@@ -108,6 +109,8 @@ pub struct BuiltModel {
     pub support_dofs: Vec<usize>,
     /// What each embedding did.
     pub embedding: Vec<EmbedSummary>,
+    /// Every enabled filament and where its elements are in the family terms.
+    pub filaments: filaments::FilamentIndex,
 }
 
 /// The outcome of one [`EmbedSpec`], for `summary.json`.
@@ -138,6 +141,9 @@ pub enum BuildError {
     /// The engine rejected the problem.
     #[error(transparent)]
     Solve(#[from] SolveError),
+    /// A group's filament list does not match its elements.
+    #[error("filaments: {0}")]
+    Filaments(String),
     /// Embedded nodes could not be placed in their hosts.
     #[error("embedding '{name}': {message}")]
     Embed {
@@ -166,6 +172,8 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         }
     }
     terms.extend(tools::contact_terms(model)?);
+    let filaments = filaments::FilamentIndex::new(structures, mesh, terms.len())
+        .map_err(BuildError::Filaments)?;
     terms.extend(structures::structure_terms(mesh, structures, &dof_map)?);
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
     let steps = model
@@ -226,6 +234,7 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         probes,
         support_dofs,
         embedding,
+        filaments,
     })
 }
 

@@ -20,6 +20,8 @@ use cellmech_fem::term::Term;
 use cellmech_fem::element::beam::BeamSection;
 use cellmech_fem::material::AxialLaw;
 
+use super::filaments::Filament;
+
 /// The element and material of a resolved filament group.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FilamentElement {
@@ -38,6 +40,10 @@ pub struct FilamentSpec {
     pub family: String,
     /// Mesh node pairs of the elements.
     pub pairs: Vec<[usize; 2]>,
+    /// The filaments the elements form: consecutive runs of `pairs` covering every element
+    /// once, each a chain from its start to its end node, with its FA end if any (see
+    /// [`super::filaments`]; [`Filament::chains`] when nothing more is known).
+    pub filaments: Vec<Filament>,
     /// Element and material (family scale and prestrain override applied).
     pub element: FilamentElement,
     /// False when the family is switched off: the group is not built.
@@ -131,8 +137,9 @@ pub fn enabled_structure_nodes(spec: &StructuresSpec, num_nodes: usize) -> Vec<b
     used
 }
 
-/// The family names of the enabled groups, in order of first appearance.
-fn families(spec: &StructuresSpec) -> Vec<&str> {
+/// The family names of the enabled groups, in order of first appearance: the order of the
+/// family terms [`structure_terms`] makes.
+pub fn filament_families(spec: &StructuresSpec) -> Vec<&str> {
     let mut names: Vec<&str> = Vec::new();
     for f in spec.filaments.iter().filter(|f| f.enabled) {
         if !names.contains(&f.family.as_str()) {
@@ -150,7 +157,7 @@ pub fn structure_terms(
     dof_map: &DofMap,
 ) -> Result<Vec<Box<dyn Term>>, StructureBuildError> {
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
-    for family in families(spec) {
+    for family in filament_families(spec) {
         let groups = spec
             .filaments
             .iter()

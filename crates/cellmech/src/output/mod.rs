@@ -1,5 +1,6 @@
 //! Writers attached to a run as observers: the force curve (`curve.csv`), the convergence
-//! table (`convergence.csv`) and the ParaView series (`fields/*.vtu` + `fields.pvd`). Every
+//! table (`convergence.csv`), the per-filament table (`filaments.csv`, see [`filaments`]) and
+//! the ParaView series (`fields/*.vtu` + `fields.pvd`). Every
 //! file is written as results are produced, through atomic replacement, so a crash keeps
 //! every converged increment.
 
@@ -11,8 +12,10 @@ use cellmech_fem::solve::{
 };
 use cellmech_io::{CurveWriter, Field, PvdSeries, VtuBlock, VtuFrame};
 
+pub mod filaments;
 pub mod model_view;
 
+use crate::model::filaments::FilamentIndex;
 use crate::model::{BuiltModel, CurveDofs, ShapeProbe};
 
 /// Convergence statistics of one step.
@@ -52,6 +55,10 @@ pub struct OutputWriter {
     pub stats: Vec<StepStats>,
     /// The first output error, if any (the run stops on it).
     pub error: Option<String>,
+    /// Every filament at the last recorded state (`None` for a model without filaments).
+    pub last_filaments: Option<filaments::FilamentSnapshot>,
+    filaments: FilamentIndex,
+    filaments_csv: Option<CurveWriter>,
     curve_csv: CurveWriter,
     convergence_csv: CurveWriter,
     increments_csv: CurveWriter,
@@ -82,6 +89,7 @@ impl OutputWriter {
                     .map(|(n, _)| n),
             );
         }
+        header.extend(filaments::curve_columns(&model.filaments));
         for probe in &model.probes {
             header.extend(probe.columns());
         }
@@ -119,6 +127,14 @@ impl OutputWriter {
         let increments_csv = CurveWriter::create(&dir.join("increments.csv"), &increments_header)
             .map_err(|e| e.to_string())?;
         let pvd = PvdSeries::new(dir, "fields").map_err(|e| e.to_string())?;
+        let filaments_csv = if model.filaments.filaments.is_empty() {
+            None
+        } else {
+            Some(
+                CurveWriter::create(&dir.join("filaments.csv"), &filaments::CSV_COLUMNS)
+                    .map_err(|e| e.to_string())?,
+            )
+        };
         Ok(OutputWriter {
             curves: model.curves.clone(),
             probes: model.probes.clone(),
@@ -127,6 +143,9 @@ impl OutputWriter {
             rows: Vec::new(),
             stats: Vec::new(),
             error: None,
+            last_filaments: None,
+            filaments: model.filaments.clone(),
+            filaments_csv,
             curve_csv,
             convergence_csv,
             increments_csv,
@@ -173,6 +192,9 @@ impl OutputWriter {
                     .map(|(_, v)| v),
             );
         }
+        if let Some(values) = self.record_filaments(problem, step, increment, time) {
+            row.extend(values);
+        }
         for probe in &self.probes {
             row.extend(probe.measure(&self.nodes, problem));
         }
@@ -188,9 +210,54 @@ impl OutputWriter {
         self.record(result);
         self.rows.push(row);
         if with_frame {
-            let result = write_frame(&mut self.pvd, time, problem, &self.nodes, Vec::new());
+            let result = write_frame(
+                &mut self.pvd,
+                time,
+                problem,
+                &self.nodes,
+                Vec::new(),
+                &self.filaments,
+            );
             self.record(result);
         }
+    }
+
+    /// Evaluates every filament, appends its `filaments.csv` rows, keeps the snapshot and
+    /// returns the `curve.csv` values (`None` without filaments; NaN if the evaluation failed).
+    fn record_filaments(
+        &mut self,
+        problem: &Problem,
+        step: usize,
+        increment: usize,
+        time: f64,
+    ) -> Option<Vec<f64>> {
+        let csv = self.filaments_csv.as_mut()?;
+        let results = match filaments::evaluate(&self.filaments, problem, &self.nodes) {
+            Ok(r) => r,
+            Err(e) => {
+                self.error.get_or_insert(e);
+                let n = filaments::curve_columns(&self.filaments).len();
+                return Some(vec![f64::NAN; n]);
+            }
+        };
+        let written = filaments::push_csv_rows(csv, step, increment, time, &results);
+        self.record(written);
+        let counts = filaments::family_counts(&self.filaments, &results);
+        let values = filaments::curve_values(&counts);
+        self.last_filaments = Some(filaments::FilamentSnapshot {
+            step,
+            increment,
+            time,
+            family_names: self
+                .filaments
+                .families
+                .iter()
+                .map(|f| f.name.clone())
+                .collect(),
+            families: counts,
+            filaments: results,
+        });
+        Some(values)
     }
 
     fn record<T, E: std::fmt::Display>(&mut self, result: Result<T, E>) {
@@ -280,35 +347,48 @@ impl Observer for OutputWriter {
 
 /// Writes the current state as one frame of the series: reference points with the
 /// displacement field (use ParaView's "Warp By Vector") and any `extra` point fields, and
-/// every term's cells with their fields.
+/// every term's cells with their fields; the line cells of filament families also get
+/// `filament_id` and `filament_family` (an index into the model's filament families) from
+/// `filaments`, so that a viewer can threshold one filament.
 pub fn write_frame(
     pvd: &mut PvdSeries,
     time: f64,
     problem: &Problem,
     nodes: &[[f64; 3]],
     extra: Vec<Field>,
+    filaments: &FilamentIndex,
 ) -> Result<(), String> {
     let map = problem.dof_map();
     let displacement: Vec<f64> = (0..nodes.len())
         .flat_map(|n| (0..3).map(move |c| problem.u()[map.dof(n, c)]))
         .collect();
     let mut outputs = Vec::new();
-    for term in problem.terms() {
+    let mut cell_data = Vec::new();
+    for (t, term) in problem.terms().iter().enumerate() {
         let output: Option<_> = term
             .outputs(problem.u(), map)
             .map_err(|e: KernelError| format!("outputs of '{}': {e}", term.name()))?;
-        outputs.extend(output);
-    }
-    let blocks = outputs
-        .iter()
-        .map(|o| VtuBlock {
-            kind: o.kind,
-            connectivity: &o.connectivity,
-            cell_data: o
+        if let Some(o) = output {
+            let mut data: Vec<Field> = o
                 .fields
                 .iter()
                 .map(|f| Field::new(f.name.clone(), f.components, f.values.clone()))
-                .collect(),
+                .collect();
+            if let Some((ids, families)) = filaments.term_cell_ids(t) {
+                data.push(Field::new("filament_id", 1, ids));
+                data.push(Field::new("filament_family", 1, families));
+            }
+            outputs.push(o);
+            cell_data.push(data);
+        }
+    }
+    let blocks = outputs
+        .iter()
+        .zip(cell_data)
+        .map(|(o, cell_data)| VtuBlock {
+            kind: o.kind,
+            connectivity: &o.connectivity,
+            cell_data,
         })
         .collect();
     let frame = VtuFrame {

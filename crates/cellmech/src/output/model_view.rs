@@ -149,7 +149,14 @@ pub fn write_model(
             Field::new(format!("set_{name}"), 1, flag)
         })
         .collect();
-    crate::output::write_frame(&mut pvd, 0.0, &model.problem, &spec.mesh.nodes, sets)?;
+    crate::output::write_frame(
+        &mut pvd,
+        0.0,
+        &model.problem,
+        &spec.mesh.nodes,
+        sets,
+        &model.filaments,
+    )?;
     let picture = format!("model.{}", about.plot_format.extension());
     plot_model_picture(&dir.join(&picture), &model_picture(spec, about.title))
         .map_err(|e| e.to_string())?;

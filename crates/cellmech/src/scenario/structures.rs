@@ -16,6 +16,8 @@ use toml::Spanned;
 use super::context::Ctx;
 use super::ScenarioError;
 pub use crate::model::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
+
+use crate::model::filaments::Filament;
 use crate::units::{Length, Pressure, Ratio};
 
 /// Default distance within which a `points` end snaps to the nearest mesh node (µm).
@@ -338,6 +340,7 @@ fn resolve_filament(
     Ok(FilamentSpec {
         name,
         family,
+        filaments: Filament::chains(&pairs),
         pairs,
         element,
         enabled: true,

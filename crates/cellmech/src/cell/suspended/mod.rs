@@ -36,6 +36,7 @@ pub use geometry::{
 pub use layout::*;
 pub use materials::*;
 
+use crate::model::filaments::{Filament, FilamentEnd};
 use crate::model::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
 use crate::model::MaterialAssignment;
 
@@ -188,9 +189,12 @@ pub fn suspended_cell_parts(
     let a = m.actin;
     let actin =
         tension_only_law("actin", a.youngs_modulus, a.diameter)?.with_prestrain(a.prestrain);
+    // Filament identity: one AF per edge (both ends on FAs), one MT per chain (centrosome
+    // first, FA last), one IF per [FA, nucleus anchor] pair.
     structures.filaments.push(FilamentSpec {
         name: family::ACTIN.into(),
         family: family::ACTIN.into(),
+        filaments: Filament::one_per_element(geometry.af_edges.len(), Some(FilamentEnd::Both)),
         pairs: geometry.af_edges.clone(),
         element: FilamentElement::Truss(actin),
         enabled: components.actin,
@@ -206,6 +210,10 @@ pub fn suspended_cell_parts(
     structures.filaments.push(FilamentSpec {
         name: family::MICROTUBULE.into(),
         family: family::MICROTUBULE.into(),
+        filaments: Filament::consecutive(
+            &chains.iter().map(|c| c.len() - 1).collect::<Vec<_>>(),
+            Some(FilamentEnd::End),
+        ),
         pairs: chains
             .iter()
             .flat_map(|c| c.windows(2).map(|w| [w[0], w[1]]))
@@ -218,6 +226,10 @@ pub fn suspended_cell_parts(
     structures.filaments.push(FilamentSpec {
         name: family::INTERMEDIATE.into(),
         family: family::INTERMEDIATE.into(),
+        filaments: Filament::one_per_element(
+            geometry.intermediate_filaments.len(),
+            Some(FilamentEnd::Start),
+        ),
         pairs: geometry.intermediate_filaments.clone(),
         element: FilamentElement::Truss(law),
         enabled: components.intermediate,
