@@ -355,3 +355,28 @@ fn float64_array(vtu: &str, name: &str) -> Vec<f64> {
         .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
         .collect()
 }
+
+#[test]
+fn bfgs_iterations_give_the_newton_tension_force_with_fewer_factorisations() {
+    // The same coarse tension test with `[cell.solver] iteration = "bfgs"`: the same
+    // equilibrium (both converge to the relative tolerance 1e-8), fewer factorisations.
+    let newton = scenario("", "kind = \"micropipette-tension\"", "").unwrap();
+    let bfgs = scenario(
+        "[cell.solver]\niteration = \"bfgs\"\n",
+        "kind = \"micropipette-tension\"",
+        "",
+    )
+    .unwrap();
+    let (sn, rn, _) = run_case("newton", &newton);
+    let (sb, rb, _) = run_case("bfgs", &bfgs);
+    let (fn_, fb) = (rn.last.unwrap().force_nn, rb.last.unwrap().force_nn);
+    assert!(
+        (fn_ - fb).abs() <= 1e-6 * fn_,
+        "Newton {fn_} nN, BFGS {fb} nN"
+    );
+    let (kn, kb) = (
+        sn.solver_timings.factorizations,
+        sb.solver_timings.factorizations,
+    );
+    assert!(kb < kn, "BFGS {kb} factorisations, Newton {kn}");
+}

@@ -32,6 +32,13 @@ pub struct IterationReport {
     pub correction_norm: f64,
 }
 
+/// Largest quasi-Newton correction as a multiple of the previous step before the tangent
+/// is reformed.
+const MAX_QUASI_NEWTON_GROWTH: f64 = 10.0;
+/// Largest `s·r_prev / s·y` of an accepted BFGS update (the square of FEBio's bound on the
+/// update's condition number, 1e5).
+const MAX_UPDATE_CONDITION: f64 = 1e10;
+
 /// A residual this small relative to the force scale is round-off: converged.
 const ROUND_OFF: f64 = 1e-13;
 /// A correction this small relative to the model size (`Problem::set_length_scale`) is
@@ -218,7 +225,17 @@ impl Problem {
                 self.work.updates = 0;
                 reform = false;
             } else {
+                // A quasi-Newton correction far longer than the last step means the updates
+                // have lost the tangent (floppy modes): reform instead.
+                let last_step =
+                    step_length * self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt();
                 self.quasi_newton_direction()?;
+                let length = self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if !(length <= MAX_QUASI_NEWTON_GROWTH * last_step) {
+                    self.assemble_full(false)?;
+                    self.factorize_and_solve()?;
+                    self.work.updates = 0;
+                }
             }
             previous_norm = residual_norm;
             self.work.r_prev.copy_from_slice(&self.work.rhs);
@@ -240,11 +257,14 @@ impl Problem {
         }
         let (mut sy, mut ss, mut yy) = (0.0, 0.0, 0.0);
         for d in 0..n {
-            let step = step_length * self.work.delta[d];
-            let change = if self.prescribed[d] {
-                0.0
+            // Prescribed DOFs moved only in the predictor: no part of a later direction.
+            let (step, change) = if self.prescribed[d] {
+                (0.0, 0.0)
             } else {
-                self.work.r_prev[d] - self.work.rhs[d]
+                (
+                    step_length * self.work.delta[d],
+                    self.work.r_prev[d] - self.work.rhs[d],
+                )
             };
             self.work.qn_s[k][d] = step;
             self.work.qn_y[k][d] = change;
@@ -252,7 +272,17 @@ impl Problem {
             ss += step * step;
             yy += change * change;
         }
+        // Positive curvature, and a secant that agrees with the energy the step was
+        // predicted to release (s·r_prev / s·y near 1 for a quadratic; Matthies–Strang's
+        // condition-number bound, 1e5 on its square root as in FEBio).
         if !(sy > 1e-12 * (ss * yy).sqrt()) {
+            return false;
+        }
+        let predicted: f64 = (0..n)
+            .filter(|&d| !self.prescribed[d])
+            .map(|d| step_length * self.work.delta[d] * self.work.r_prev[d])
+            .sum();
+        if !(predicted / sy <= MAX_UPDATE_CONDITION) {
             return false;
         }
         self.work.qn_rho[k] = 1.0 / sy;

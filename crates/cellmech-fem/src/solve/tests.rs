@@ -266,3 +266,44 @@ fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
     assert!(matches!(err, SolveError::TargetNotReached { .. }), "{err}");
     assert!((p.u()[9] - 1.6).abs() < 1e-9);
 }
+
+#[test]
+fn bfgs_reaches_the_same_equilibrium_with_fewer_factorisations() {
+    // A spring fixed at the origin, its free end loaded sideways (large rotation), solved by
+    // full Newton and by BFGS: same answer to the tolerance, fewer factorisations.
+    let solve = |method: IterationMethod| {
+        let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        let mut set = springs(&nodes, &[[0, 1]], 10.0);
+        set.rest_length[0] = 0.8;
+        let terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
+        let mut p = Problem::new(
+            DofMap::translational(2),
+            terms,
+            Box::new(DenseSolver::default()),
+        )
+        .unwrap();
+        let mut step = Step::new("load");
+        step.prescribed = vec![
+            (0, Motion::Hold),
+            (1, Motion::Hold),
+            (2, Motion::Hold),
+            (5, Motion::Hold),
+        ];
+        step.loads = vec![
+            NodalLoad { dof: 3, value: 4.0 },
+            NodalLoad { dof: 4, value: 3.0 },
+        ];
+        step.control.initial_increment = 0.25;
+        step.control.convergence.method = method;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        (p.u()[3], p.u()[4], p.timings().factorizations)
+    };
+    let (x, y, newton) = solve(IterationMethod::Newton);
+    let (xb, yb, bfgs) = solve(IterationMethod::Bfgs { max_updates: 10 });
+    assert!(
+        (x - xb).abs() < 1e-7 && (y - yb).abs() < 1e-7,
+        "{x} {y} vs {xb} {yb}"
+    );
+    assert!(bfgs < newton, "BFGS {bfgs} factorisations, Newton {newton}");
+}

@@ -30,8 +30,9 @@ pub struct BuiltCell {
     /// The supports kept once tools hold the cell: they remove the rotation about the test
     /// axis that bonded patches near the axis can leave free, and carry (almost) no load.
     pub rotation_hold: Vec<(String, [bool; 3])>,
-    /// Viscous stabilisation for the protocol's steps (as the prestress has it).
-    pub stabilization: Option<cellmech_fem::solve::Stabilization>,
+    /// The base control of every step (viscous stabilisation, iteration method): the
+    /// prestress and every protocol step start from it and set their increments.
+    pub step_control: cellmech_fem::solve::StepControl,
 }
 
 /// What is known about a built cell, for outputs and summaries (`summary.json`).

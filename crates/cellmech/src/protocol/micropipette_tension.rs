@@ -202,7 +202,7 @@ impl MicropipetteTension {
             control: cellmech_fem::solve::StepControl {
                 initial_increment: self.max_increment.min(0.1),
                 max_increment: self.max_increment,
-                ..Default::default()
+                ..cell.step_control
             },
             fixes: vec![
                 ("cap_minus".into(), [true; 3]),

@@ -322,8 +322,7 @@ impl PoleTest {
             loading: StepControl {
                 initial_increment: max_increment.min(0.1),
                 max_increment,
-                stabilization: cell.stabilization,
-                ..StepControl::default()
+                ..cell.step_control
             },
             hold: cell.rotation_hold.clone(),
             supports: cell.model.supports.clone(),
@@ -373,6 +372,57 @@ impl PoleTest {
             displacements: Vec::new(),
             forces: Vec::new(),
             tools,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell::suspended::SuspendedCell;
+    use cellmech_fem::solve::Activation;
+
+    /// Every step a protocol writes carries the cell's stabilisation setting (a step that
+    /// forgot it would run without, silently).
+    #[test]
+    fn every_protocol_step_carries_the_cells_solver_settings() {
+        for &kind in KINDS.iter() {
+            let table = Protocol::table(kind).unwrap();
+            for grip in ["cap", "contact"] {
+                #[allow(unused_mut)]
+                let mut values = crate::param::ParamValues::defaults(table);
+                if kind == "micropipette-tension" {
+                    values
+                        .set(table, "grip", crate::param::ParamValue::Word(grip.into()))
+                        .unwrap();
+                }
+                let protocol = Protocol::from_values(kind, &values).unwrap();
+                let mut cell = SuspendedCell::default();
+                cell.params.mesh.core_divisions = 4;
+                cell.params.mesh.shell_layers = 2;
+                cell.params.mesh.outer_layers = 2;
+                let mut built = cell.build().unwrap();
+                assert_eq!(
+                    built.step_control.stabilization.map(|s| s.activation),
+                    Some(Activation::OnDifficulty)
+                );
+                protocol.apply(&mut built).unwrap();
+                assert_eq!(
+                    built.prestress.control.stabilization,
+                    built.step_control.stabilization
+                );
+                for step in &built.model.steps {
+                    assert_eq!(
+                        step.control.stabilization, built.step_control.stabilization,
+                        "{kind} ({grip}): step {}",
+                        step.name
+                    );
+                    assert_eq!(
+                        step.control.convergence.method,
+                        built.step_control.convergence.method
+                    );
+                }
+            }
         }
     }
 }

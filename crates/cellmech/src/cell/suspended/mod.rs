@@ -392,6 +392,8 @@ pub struct SuspendedCell {
     pub coupling: Coupling,
     /// Viscous stabilisation of every analysis step (`None`: off).
     pub stabilization: Option<cellmech_fem::solve::Stabilization>,
+    /// How Newton's corrections after the first are computed in every step.
+    pub iteration: cellmech_fem::solve::IterationMethod,
 }
 
 impl Default for SuspendedCell {
@@ -404,6 +406,17 @@ impl Default for SuspendedCell {
 }
 
 impl SuspendedCell {
+    /// The base control of every step: default increments and criteria with the cell's
+    /// stabilisation and iteration method.
+    pub fn step_control(&self) -> cellmech_fem::solve::StepControl {
+        let mut control = cellmech_fem::solve::StepControl {
+            stabilization: self.stabilization,
+            ..Default::default()
+        };
+        control.convergence.method = self.iteration;
+        control
+    }
+
     /// The cell from resolved values of [`params::SUSPENDED_CELL`].
     pub fn from_values(values: &crate::param::ParamValues) -> Self {
         let (params, materials) = params::from_values(values);
@@ -413,6 +426,7 @@ impl SuspendedCell {
             components: Components::default(),
             coupling: params::coupling_from_values(values),
             stabilization: params::stabilization_from_values(values),
+            iteration: params::iteration_from_values(values),
         }
     }
 
@@ -469,8 +483,7 @@ impl SuspendedCell {
             control: cellmech_fem::solve::StepControl {
                 initial_increment: 0.1,
                 max_increment: 0.2,
-                stabilization: self.stabilization,
-                ..Default::default()
+                ..self.step_control()
             },
             fixes: supports.clone(),
             displacements: Vec::new(),
@@ -498,7 +511,7 @@ impl SuspendedCell {
             surface_set: "surface".into(),
             prestress,
             rotation_hold,
-            stabilization: self.stabilization,
+            step_control: self.step_control(),
         })
     }
 }

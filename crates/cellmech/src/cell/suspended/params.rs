@@ -7,7 +7,7 @@
 
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Dimensionless, Length, Pressure};
-use cellmech_fem::solve::{Activation, Stabilization};
+use cellmech_fem::solve::{Activation, IterationMethod, Stabilization};
 
 use super::cytoskeleton::IfAnchorRule;
 use super::geometry::FaOrientation;
@@ -83,6 +83,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")"),
         p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice (spec: \"The hybrid model idea\")"),
         p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)"),
+        p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)"),
         p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", "spec (EA = 0.60 nN)"),
         p("intermediate.diameter", K::Quantity(Length), D::Number(0.010), POS, "intermediate filament diameter", SPEC),
         p("intermediate.slack", K::Quantity(Dimensionless), D::Number(0.20), NONNEG, "slack: no force below (1 + slack) × the initial length", SPEC),
@@ -169,6 +170,14 @@ pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
         activation,
         ..Stabilization::default()
     })
+}
+
+/// The iteration method of every step from resolved values of [`SUSPENDED_CELL`].
+pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
+    match v.word("solver.iteration") {
+        "bfgs" => IterationMethod::Bfgs { max_updates: 10 },
+        _ => IterationMethod::Newton,
+    }
 }
 
 /// The cytoskeleton's coupling from resolved values of [`SUSPENDED_CELL`].
