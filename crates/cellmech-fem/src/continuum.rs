@@ -3,7 +3,9 @@
 //! law is given (the kernel is monomorphised per law).
 
 use crate::dof::DofMap;
-use crate::element::hex8::{hex8_evaluate, hex8_response, Hex8Formulation, Hex8Reference};
+use crate::element::hex8::{
+    hex8_evaluate, hex8_max_log_strain_between, hex8_response, Hex8Formulation, Hex8Reference,
+};
 use crate::element::{ElementSet, KernelError};
 use crate::material::{Hyperelastic, NeoHookean};
 use crate::mesh::{ElementBlock, ElementKind};
@@ -203,5 +205,34 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
             (format!("{}_max_principal_log_strain", self.name), strain),
             (format!("{}_max_von_mises_kPa", self.name), mises),
         ]
+    }
+
+    /// `<block>_max_principal_log_strain_from_reference`: the largest principal log strain
+    /// of the deformation from the state `u_from` (e.g. a test's prestressed reference
+    /// state), over the block's Gauss points. NaN when an element cannot be evaluated.
+    fn curve_outputs_from(
+        &self,
+        u: &[f64],
+        u_from: &[f64],
+        dof_map: &DofMap,
+    ) -> Vec<(String, f64)> {
+        let mut strain = f64::NEG_INFINITY;
+        for e in 0..self.connectivity.len() {
+            match hex8_max_log_strain_between(
+                &self.references[e],
+                &self.element_displacements(e, u_from, dof_map),
+                &self.element_displacements(e, u, dof_map),
+            ) {
+                Ok(s) => strain = strain.max(s),
+                Err(_) => {
+                    strain = f64::NAN;
+                    break;
+                }
+            }
+        }
+        vec![(
+            format!("{}_max_principal_log_strain_from_reference", self.name),
+            strain,
+        )]
     }
 }

@@ -53,6 +53,18 @@ pub trait Term: Send + Sync {
         Vec::new()
     }
 
+    /// Named scalars measured from the state `u_from` instead of the reference mesh (e.g. a
+    /// continuum block's largest principal log strain from a test's prestressed reference
+    /// state). Default: none.
+    fn scalar_outputs_from(
+        &self,
+        _u: &[f64],
+        _u_from: &[f64],
+        _dof_map: &DofMap,
+    ) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
     /// Called before every attempt at an increment with the step and the step time the
     /// increment is heading for, so that terms driven by their own load program (e.g. a rigid
     /// tool's motion) can position themselves.

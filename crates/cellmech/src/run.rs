@@ -151,6 +151,13 @@ pub fn run_with_threads(
         scenario.model.output.vtk_every,
     )
     .map_err(RunError::Output)?;
+    if let Some(CellStudy {
+        protocol: Some(plan),
+        ..
+    }) = &scenario.cell
+    {
+        writer.set_reference_step(plan.reference_step());
+    }
     writer.record_state(&model.problem, 0, 0, 0.0, true);
     let mut failure = None;
     for step in &model.steps {

@@ -92,6 +92,23 @@ fn tension_test_stiffens_and_elongates_the_nucleus_along_the_stretch() {
     let aspect: Vec<f64> = r.curve.iter().map(|p| p.nucleus_aspect_ratio).collect();
     assert!(aspect.windows(2).all(|w| w[1] > w[0]), "{aspect:?}");
     assert!(last.nucleus_aspect_ratio > 1.01, "{aspect:?}");
+    // Nucleus strain from the reference state: 0 there, growing with the stretch, and the
+    // test's own part of the strain measured from the mesh (which includes the prestress).
+    let from_reference: Vec<f64> = r
+        .curve
+        .iter()
+        .map(|p| p.nucleus_max_principal_log_strain_from_reference)
+        .collect();
+    assert_eq!(from_reference[0], 0.0);
+    assert!(
+        from_reference.windows(2).all(|w| w[1] > w[0]),
+        "{from_reference:?}"
+    );
+    assert!(
+        *from_reference.last().unwrap() < last.nucleus_max_principal_log_strain + 1e-12,
+        "{from_reference:?} vs {}",
+        last.nucleus_max_principal_log_strain
+    );
     // Every MT element is counted as in tension or in compression.
     let mts = summary.final_values["microtubule_in_tension"]
         + summary.final_values["microtubule_in_compression"];

@@ -90,6 +90,16 @@ pub trait ElementSet: Send + Sync {
         Vec::new()
     }
 
+    /// Named scalars measured from the state `u_from` ([`Term::scalar_outputs_from`]).
+    fn curve_outputs_from(
+        &self,
+        _u: &[f64],
+        _u_from: &[f64],
+        _dof_map: &DofMap,
+    ) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
     /// The increment about to be attempted ([`Term::set_load_state`]).
     fn on_load_state(&mut self, _state: &LoadState) {}
 
@@ -136,6 +146,15 @@ impl<S: ElementSet> Term for S {
 
     fn scalar_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
         self.curve_outputs(u, dof_map)
+    }
+
+    fn scalar_outputs_from(
+        &self,
+        u: &[f64],
+        u_from: &[f64],
+        dof_map: &DofMap,
+    ) -> Vec<(String, f64)> {
+        self.curve_outputs_from(u, u_from, dof_map)
     }
 
     fn set_load_state(&mut self, state: &LoadState) {

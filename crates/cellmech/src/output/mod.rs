@@ -62,6 +62,14 @@ pub struct OutputWriter {
     curve_csv: CurveWriter,
     convergence_csv: CurveWriter,
     increments_csv: CurveWriter,
+    /// Strains are also measured from the end of this step (a test's reference state).
+    reference_step: Option<usize>,
+    /// The DOF values at that state, once reached.
+    u_reference: Option<Vec<f64>>,
+    /// The last converged state of the reference step while it runs.
+    reference_candidate: Option<Vec<f64>>,
+    /// Columns of the strains from the reference state (NaN before it is reached).
+    from_reference_columns: usize,
     pvd: PvdSeries,
     vtk_every: usize,
     attempt: usize,
@@ -89,6 +97,15 @@ impl OutputWriter {
                     .map(|(n, _)| n),
             );
         }
+        let before = header.len();
+        for term in p.terms() {
+            header.extend(
+                term.scalar_outputs_from(p.u(), p.u(), p.dof_map())
+                    .into_iter()
+                    .map(|(n, _)| n),
+            );
+        }
+        let from_reference_columns = header.len() - before;
         header.extend(filaments::curve_columns(&model.filaments));
         for probe in &model.probes {
             header.extend(probe.columns());
@@ -149,12 +166,22 @@ impl OutputWriter {
             curve_csv,
             convergence_csv,
             increments_csv,
+            reference_step: None,
+            u_reference: None,
+            reference_candidate: None,
+            from_reference_columns,
             pvd,
             vtk_every,
             attempt: 0,
             nodes,
             step_start: std::time::Instant::now(),
         })
+    }
+
+    /// Also measure strains from the end of step `step` (the test's reference state): the
+    /// `*_from_reference` columns, NaN until that state is reached.
+    pub fn set_reference_step(&mut self, step: Option<usize>) {
+        self.reference_step = step;
     }
 
     /// Path of the ParaView series file.
@@ -191,6 +218,18 @@ impl OutputWriter {
                     .into_iter()
                     .map(|(_, v)| v),
             );
+        }
+        match &self.u_reference {
+            Some(u_from) => {
+                for term in problem.terms() {
+                    row.extend(
+                        term.scalar_outputs_from(problem.u(), u_from, problem.dof_map())
+                            .into_iter()
+                            .map(|(_, v)| v),
+                    );
+                }
+            }
+            None => row.extend(std::iter::repeat_n(f64::NAN, self.from_reference_columns)),
         }
         if let Some(values) = self.record_filaments(problem, step, increment, time) {
             row.extend(values);
@@ -326,6 +365,21 @@ impl Observer for OutputWriter {
         let result = self.increments_csv.push_row(&row);
         self.record(result);
         let step_end = (report.step_time - 1.0).abs() < 1e-12;
+        // The reference state is the last converged state of the reference step (which a
+        // stop condition may end before its step time 1): kept while the step runs, in use
+        // from its end (or, when it ends early, from the next step on).
+        match self.reference_step {
+            Some(r) if r == report.step_index => {
+                self.reference_candidate = Some(problem.u().to_vec());
+                if step_end {
+                    self.u_reference = self.reference_candidate.take();
+                }
+            }
+            Some(r) if report.step_index > r && self.u_reference.is_none() => {
+                self.u_reference = self.reference_candidate.take();
+            }
+            _ => {}
+        }
         let due = step_end || (self.vtk_every > 0 && report.increment % self.vtk_every == 0);
         self.record_state(
             problem,

@@ -229,6 +229,18 @@ pub enum ProtocolPlan {
 }
 
 /// The declared `contact_force` of the two-tool protocols.
+impl ProtocolPlan {
+    /// The step at whose end the test's reference state is reached (tension: the unloaded
+    /// reference state; compression: first contact), if the protocol has one.
+    pub fn reference_step(&self) -> Option<usize> {
+        match self {
+            ProtocolPlan::Prestress => None,
+            ProtocolPlan::MicropipetteTension { reference_step, .. } => Some(*reference_step),
+            ProtocolPlan::MicroplateCompression { contact_step, .. } => Some(*contact_step),
+        }
+    }
+}
+
 pub(crate) const CONTACT_FORCE: ParamDef = ParamDef {
     key: "contact_force",
     kind: ParamKind::Quantity(Dimension::Force),

@@ -29,8 +29,12 @@ pub struct TestPoint {
     /// Tension: force / (π D²/4) / (elongation / D) (kPa); compression: the same with the
     /// deformation.
     pub normalised_stiffness_kpa: f64,
-    /// Largest first principal logarithmic strain in the nucleus.
+    /// Largest first principal logarithmic strain in the nucleus, measured from the
+    /// unstressed mesh (includes the prestress).
     pub nucleus_max_principal_log_strain: f64,
+    /// The same measured from the test's reference state (tension: the unloaded state
+    /// after the prestress; compression: first contact): the strain the test causes.
+    pub nucleus_max_principal_log_strain_from_reference: f64,
     /// Nucleus length along the test axis over its mean transverse width.
     pub nucleus_aspect_ratio: f64,
 }
@@ -104,6 +108,7 @@ pub fn write_protocol_results(
     let u = column(&holder.displacement_column(cell.axis))?;
     let f = column(&holder.force_column(cell.axis))?;
     let strain = column("nucleus_max_principal_log_strain")?;
+    let strain_from_reference = column("nucleus_max_principal_log_strain_from_reference")?;
     let aspect = column("nucleus_aspect_ratio")?;
     let support = column("support_reaction_max_nN")?;
     let d = cell.cell_diameter;
@@ -143,6 +148,11 @@ pub fn write_protocol_results(
             force_nn: force,
             normalised_stiffness_kpa: if e > 0.0 { force / area / e } else { f64::NAN },
             nucleus_max_principal_log_strain: strain[r],
+            nucleus_max_principal_log_strain_from_reference: if r == reference {
+                0.0
+            } else {
+                strain_from_reference[r]
+            },
             nucleus_aspect_ratio: aspect[r],
         }
     };
@@ -178,6 +188,7 @@ pub fn write_protocol_results(
             "force_nN",
             "normalised_stiffness_kPa",
             "nucleus_max_principal_log_strain",
+            "nucleus_max_principal_log_strain_from_reference",
             "nucleus_aspect_ratio",
         ],
     )
@@ -189,6 +200,7 @@ pub fn write_protocol_results(
             p.force_nn,
             p.normalised_stiffness_kpa,
             p.nucleus_max_principal_log_strain,
+            p.nucleus_max_principal_log_strain_from_reference,
             p.nucleus_aspect_ratio,
         ])
         .map_err(|e| e.to_string())?;
@@ -211,20 +223,27 @@ pub fn write_protocol_results(
         (
             format!("{stem}-force.{plot_extension}"),
             "force on the moving tool (nN)",
-            series("force", |p| p.force_nn),
+            vec![series("force", |p| p.force_nn)],
         ),
         (
             format!("{stem}-nucleus.{plot_extension}"),
             "nucleus max principal log strain",
-            series("nucleus strain", |p| p.nucleus_max_principal_log_strain),
+            vec![
+                series("from the unstressed mesh", |p| {
+                    p.nucleus_max_principal_log_strain
+                }),
+                series("from the reference state", |p| {
+                    p.nucleus_max_principal_log_strain_from_reference
+                }),
+            ],
         ),
     ];
-    for (file, y_label, s) in plots {
+    for (file, y_label, series) in plots {
         let spec = PlotSpec {
             title: title.into(),
             x_label: x_label.into(),
             y_label: y_label.into(),
-            series: vec![s],
+            series,
         };
         plot_xy(&dir.join(&file), &spec).map_err(|e| e.to_string())?;
         results.files.push(file);

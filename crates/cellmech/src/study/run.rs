@@ -59,8 +59,11 @@ pub struct CaseRecord {
     pub force_nn: Option<f64>,
     /// Displacement at the last converged point (µm).
     pub displacement_um: Option<f64>,
-    /// Nucleus max principal log strain at the last point.
+    /// Nucleus max principal log strain at the last point, from the unstressed mesh.
     pub nucleus_strain: Option<f64>,
+    /// The same from the test's reference state.
+    #[serde(default)]
+    pub nucleus_strain_from_reference: Option<f64>,
     /// Compression: (deformation, force nN) at each target.
     pub at_deformations: Vec<(f64, f64)>,
     /// Newton iterations over all steps.
@@ -220,6 +223,8 @@ fn run_case(
         force_nn: last.map(|p| p.force_nn),
         displacement_um: last.map(|p| p.displacement_um),
         nucleus_strain: last.map(|p| p.nucleus_max_principal_log_strain),
+        nucleus_strain_from_reference: last
+            .map(|p| p.nucleus_max_principal_log_strain_from_reference),
         at_deformations: protocol
             .map(|p| {
                 p.at_deformations

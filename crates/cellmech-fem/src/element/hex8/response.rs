@@ -67,3 +67,26 @@ pub fn hex8_response<M: Hyperelastic>(
         pressure: -mean,
     })
 }
+
+/// Largest principal logarithmic strain over the Gauss points of the deformation from the
+/// state `u_from` to the state `u` (both displacements from the mesh, µm): with
+/// `F_rel = F(u) · F(u_from)⁻¹`, the max over Gauss points of `½ ln λ_max(F_rel F_relᵀ)`.
+/// Errors when either state inverts the element.
+pub fn hex8_max_log_strain_between(
+    reference: &Hex8Reference,
+    u_from: &[f64; 24],
+    u: &[f64; 24],
+) -> Result<f64, KernelError> {
+    let (fs, _, _) = reference.kinematics(u)?;
+    let (fs_from, _, _) = reference.kinematics(u_from)?;
+    let mut max_log = f64::NEG_INFINITY;
+    for q in 0..8 {
+        let inverse = fs_from[q]
+            .try_inverse()
+            .ok_or(KernelError::InvertedElement { qp: q, det_f: 0.0 })?;
+        let f = fs[q] * inverse;
+        let b = f * f.transpose();
+        max_log = max_log.max(0.5 * b.symmetric_eigenvalues().max().ln());
+    }
+    Ok(max_log)
+}

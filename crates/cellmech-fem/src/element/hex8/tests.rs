@@ -394,3 +394,24 @@ fn hex8_timing() {
         assert!(acc.is_finite());
     }
 }
+
+#[test]
+fn log_strain_between_two_states_is_that_of_the_relative_deformation() {
+    // From a prestretched state F₁ = diag(1.2, 1, 0.9) to F₂: the strain measured from F₁
+    // is that of F₂F₁⁻¹, whatever F₁ was; a rigid rotation after F₁ strains nothing.
+    let x0 = distorted();
+    let r = Hex8Reference::new(&x0).expect("valid reference");
+    let f1 = Matrix3::from_diagonal(&Vector3::new(1.2, 1.0, 0.9));
+    let u1 = homogeneous_u(&x0, &f1);
+    let f2 = Matrix3::from_diagonal(&Vector3::new(1.5, 1.0, 0.9));
+    let strain = hex8_max_log_strain_between(&r, &u1, &homogeneous_u(&x0, &f2)).unwrap();
+    assert!((strain - (1.5f64 / 1.2).ln()).abs() < 1e-12, "{strain}");
+    let rotation = *Rotation3::from_euler_angles(0.3, -0.2, 0.7).matrix();
+    let rotated = homogeneous_u(&x0, &(rotation * f1));
+    let strain = hex8_max_log_strain_between(&r, &u1, &rotated).unwrap();
+    assert!(strain.abs() < 1e-12, "{strain}");
+    // From the mesh (u_from = 0) it is the ordinary measure.
+    let zero = [0.0; 24];
+    let strain = hex8_max_log_strain_between(&r, &zero, &u1).unwrap();
+    assert!((strain - 1.2f64.ln()).abs() < 1e-12);
+}
