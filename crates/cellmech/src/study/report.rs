@@ -32,6 +32,8 @@ pub struct StudyRow {
     pub nucleus_strain: Option<f64>,
     /// The same from the test's reference state.
     pub nucleus_strain_from_reference: Option<f64>,
+    /// MTs in tension / straight, AFs in tension, IFs in tension (filaments, not elements).
+    pub filaments: [Option<f64>; 4],
     /// Newton iterations.
     pub iterations: usize,
     /// Wall time (s).
@@ -68,6 +70,8 @@ pub fn rows(spec: &StudySpec, cases: &[Case], records: &[Option<CaseRecord>]) ->
                 control: control.map(|c| cases[c].name.clone()),
                 nucleus_strain: record.and_then(|r| r.nucleus_strain),
                 nucleus_strain_from_reference: record.and_then(|r| r.nucleus_strain_from_reference),
+                filaments: FILAMENT_COLUMNS
+                    .map(|key| record.and_then(|r| r.filaments.get(key).copied())),
                 iterations: record.map_or(0, |r| r.iterations),
                 wall_time_s: record.map_or(0.0, |r| r.wall_time_s),
                 error: record.and_then(|r| r.error.clone()),
@@ -75,6 +79,14 @@ pub fn rows(spec: &StudySpec, cases: &[Case], records: &[Option<CaseRecord>]) ->
         })
         .collect()
 }
+
+/// The filament counts the study table shows.
+const FILAMENT_COLUMNS: [&str; 4] = [
+    "microtubule_filaments_in_tension",
+    "microtubule_filaments_straight",
+    "actin_filaments_in_tension",
+    "intermediate_filaments_in_tension",
+];
 
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.map_or(String::new(), |v| format!("{v:.digits$}"))
@@ -104,7 +116,7 @@ pub fn write_report(
     for (i, a) in spec.axes.iter().enumerate() {
         let _ = write!(csv, ",axis{i}_{}", a.kind);
     }
-    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,iterations,wall_time_s,error\n");
+    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,wall_time_s,error\n");
     for r in &rows {
         csv.push_str(&csv_field(&r.case));
         for l in &r.labels {
@@ -113,7 +125,7 @@ pub fn write_report(
         }
         let _ = writeln!(
             csv,
-            ",{},{},{},{},{},{},{},{},{:.2},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{:.2},{}",
             r.status,
             opt(r.displacement_um, 4),
             opt(r.force_nn, 6),
@@ -121,6 +133,10 @@ pub fn write_report(
             r.control.as_deref().map(csv_field).unwrap_or_default(),
             opt(r.nucleus_strain, 5),
             opt(r.nucleus_strain_from_reference, 5),
+            opt(r.filaments[0], 0),
+            opt(r.filaments[1], 0),
+            opt(r.filaments[2], 0),
+            opt(r.filaments[3], 0),
             r.iterations,
             r.wall_time_s,
             r.error.as_deref().map(csv_field).unwrap_or_default()
@@ -247,13 +263,13 @@ pub fn write_report(
     let _ = writeln!(md, "## Results\n");
     let _ = writeln!(
         md,
-        "| case | status | displacement (µm) | force (nN) | force / control | nucleus max log strain (from mesh / from reference) | iterations | wall (s) |"
+        "| case | status | displacement (µm) | force (nN) | force / control | nucleus max log strain (from mesh / from reference) | MTs in tension / straight | AFs, IFs in tension | iterations | wall (s) |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
     for r in &rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} / {} | {} | {:.1} |",
+            "| {} | {} | {} | {} | {} | {} / {} | {} / {} | {}, {} | {} | {:.1} |",
             r.case,
             r.status,
             opt(r.displacement_um, 2),
@@ -261,6 +277,10 @@ pub fn write_report(
             opt(r.force_over_control, 3),
             opt(r.nucleus_strain, 4),
             opt(r.nucleus_strain_from_reference, 4),
+            opt(r.filaments[0], 0),
+            opt(r.filaments[1], 0),
+            opt(r.filaments[2], 0),
+            opt(r.filaments[3], 0),
             r.iterations,
             r.wall_time_s
         );

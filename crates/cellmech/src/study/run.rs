@@ -64,6 +64,10 @@ pub struct CaseRecord {
     /// The same from the test's reference state.
     #[serde(default)]
     pub nucleus_strain_from_reference: Option<f64>,
+    /// Per-family filament counts and FA-end force sums at the last point (the
+    /// `*_filaments_*` and `*_fa_force_sum_nN` columns of `curve.csv`).
+    #[serde(default)]
+    pub filaments: std::collections::BTreeMap<String, f64>,
     /// Compression: (deformation, force nN) at each target.
     pub at_deformations: Vec<(f64, f64)>,
     /// Newton iterations over all steps.
@@ -225,6 +229,16 @@ fn run_case(
         nucleus_strain: last.map(|p| p.nucleus_max_principal_log_strain),
         nucleus_strain_from_reference: last
             .map(|p| p.nucleus_max_principal_log_strain_from_reference),
+        filaments: summary
+            .as_ref()
+            .map(|s| {
+                s.final_values
+                    .iter()
+                    .filter(|(k, _)| k.contains("_filaments_") || k.ends_with("_fa_force_sum_nN"))
+                    .map(|(k, v)| (k.clone(), *v))
+                    .collect()
+            })
+            .unwrap_or_default(),
         at_deformations: protocol
             .map(|p| {
                 p.at_deformations
