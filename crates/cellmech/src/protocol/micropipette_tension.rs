@@ -202,6 +202,7 @@ impl MicropipetteTension {
             control: cellmech_fem::solve::StepControl {
                 initial_increment: self.max_increment.min(0.1),
                 max_increment: self.max_increment,
+                stabilization: cell.stabilization,
                 ..Default::default()
             },
             fixes: vec![
