@@ -81,6 +81,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", "choice (\"near the nucleus\")"),
         p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
         p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")"),
+        p("microtubules.embedded_nodes", K::Choice(&["alternate", "all"]), D::Word("alternate"), ANY, "with `coupling = \"embedded\"`: which interior MT nodes follow the continuum: every second one counted from the FA (no two held nodes adjacent: each span between them is two elements that bend like a free MT segment) or all (each element is a straight column between held nodes that buckles at its own Euler load, 0.03 nN: Newton fails in the prestress)", "choice ([embedded cell](embedded-elements.md#the-embedded-cell))"),
         p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice (spec: \"The hybrid model idea\")"),
         p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)"),
         p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", "spec (EA = 0.60 nN)"),
@@ -175,6 +176,10 @@ pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
 pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
     super::Coupling {
         microtubules_embedded: v.word("microtubules.coupling") == "embedded",
+        embedded_nodes: match v.word("microtubules.embedded_nodes") {
+            "all" => super::EmbeddedNodes::All,
+            _ => super::EmbeddedNodes::Alternate,
+        },
         centrosome_tied: v.word("microtubules.centrosome") == "tied",
     }
 }
