@@ -159,6 +159,18 @@ pub fn suspended_cell_parts(
         .flat_map(|c| c[1..c.len().saturating_sub(1)].iter().copied())
         .collect();
     mesh.insert_node_set("microtubule_interior", interior);
+    // Every second interior node counted from the FA (the FA is a mesh node, so the node
+    // next to it stays free): no two nodes held by the continuum are neighbours on a chain.
+    // The node next to the centrosome is left out too, so that a tied centrosome has a
+    // free neighbour (see [`EmbeddedNodes`]).
+    let anchors: Vec<usize> = chains
+        .iter()
+        .flat_map(|c| {
+            let n = c.len() - 1;
+            (2..n).filter(move |k| (n - k) % 2 == 0).map(move |k| c[k])
+        })
+        .collect();
+    mesh.insert_node_set("microtubule_anchors", anchors);
     let m = materials;
     let mut assignments = Vec::new();
     for (name, g, nu) in [
@@ -350,12 +362,38 @@ pub fn prestress_step(model: &SuspendedCellModel) -> Step {
 pub struct Coupling {
     /// The MTs' interior nodes follow the cytoplasm they lie in (embedded elements).
     pub microtubules_embedded: bool,
+    /// Which interior nodes are embedded when `microtubules_embedded`.
+    pub embedded_nodes: EmbeddedNodes,
     /// The centrosome node follows the cytoplasm it lies in.
     pub centrosome_tied: bool,
 }
 
+/// Which interior MT nodes follow the continuum (`[cell.microtubules] embedded_nodes`).
+///
+/// A beam element whose two end nodes are both held by the continuum is a straight column
+/// between fixed points: its translations cannot move, only its end rotations can, and
+/// under compression it buckles in a perfect bifurcation at its own Euler load
+/// (≈ 12 EI/L² ≈ 0.03 nN for the 2.7 µm elements of the default MT). With every interior
+/// node embedded all 240 elements are such columns; the gel's contraction in the prestress
+/// compresses them past that load within the first percent of the ramp, and the tangent
+/// then has ~300 negative pivots (measured: docs/embedded-elements.md, "The embedded
+/// cell"). With every second node embedded, each span between two held nodes is two
+/// elements meeting at the MT's curvature: it bends like a free MT segment (no
+/// bifurcation, positive-definite tangent), and it carries tension once the gel between
+/// its anchors stretches it straight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EmbeddedNodes {
+    /// Every second interior node counted from the FA, never the centrosome's neighbour
+    /// (node set `microtubule_anchors`, 90 nodes for 8 elements per MT).
+    #[default]
+    Alternate,
+    /// Every interior node (node set `microtubule_interior`).
+    All,
+}
+
 impl Coupling {
-    /// The model's embeddings (node sets `microtubule_interior`, `centrosome`).
+    /// The model's embeddings (node sets `microtubule_anchors` or `microtubule_interior`,
+    /// and `centrosome`).
     pub fn embeddings(&self) -> Vec<crate::model::EmbedSpec> {
         let spec = |name: &str| crate::model::EmbedSpec {
             name: name.into(),
@@ -365,7 +403,10 @@ impl Coupling {
         };
         let mut out = Vec::new();
         if self.microtubules_embedded {
-            out.push(spec("microtubule_interior"));
+            out.push(spec(match self.embedded_nodes {
+                EmbeddedNodes::Alternate => "microtubule_anchors",
+                EmbeddedNodes::All => "microtubule_interior",
+            }));
         }
         if self.centrosome_tied {
             out.push(spec("centrosome"));

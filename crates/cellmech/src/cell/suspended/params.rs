@@ -81,6 +81,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", "choice (\"near the nucleus\")"),
         p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
         p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")"),
+        p("microtubules.embedded_nodes", K::Choice(&["alternate", "all"]), D::Word("alternate"), ANY, "with `coupling = \"embedded\"`: which interior MT nodes follow the continuum: every second one counted from the FA (no two held nodes adjacent: each span between them is two elements that bend like a free MT segment) or all (each element is a straight column between held nodes that buckles at its own Euler load, 0.03 nN: Newton fails in the prestress)", "choice ([embedded cell](embedded-elements.md#the-embedded-cell))"),
         p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice (spec: \"The hybrid model idea\")"),
         p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)"),
         p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)"),
@@ -184,6 +185,10 @@ pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
 pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
     super::Coupling {
         microtubules_embedded: v.word("microtubules.coupling") == "embedded",
+        embedded_nodes: match v.word("microtubules.embedded_nodes") {
+            "all" => super::EmbeddedNodes::All,
+            _ => super::EmbeddedNodes::Alternate,
+        },
         centrosome_tied: v.word("microtubules.centrosome") == "tied",
     }
 }
