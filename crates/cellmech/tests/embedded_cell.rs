@@ -86,10 +86,15 @@ fn tension(name: &str, coupling: &str) -> cellmech::run::RunSummary {
 }
 
 /// The cap-grip tension test to 6.3 µm with embedded MTs: it completes (the stretch is
-/// stabilised: measured 27 increments, 4 cutbacks, 1.2 % of the strain energy dissipated)
-/// and the MTs carry load. Measured at 6.3 µm (coarse): force 118.4 nN embedded vs
-/// 92.35 nN free; MT axial force max 20.9 nN (free 0.000), 144 of 240 MT elements in
-/// tension (free 23); the compressed ones carry at most 0.12 nN (0.46 MPa: "below 1 MPa").
+/// stabilised) and the MTs carry load. Measured at 6.3 µm (coarse) with the stabilisation
+/// switched on after 3 failed attempts in a row: force 106.75 nN embedded vs 92.35 nN free
+/// (+16 %); MT axial force max 17.1 nN (free 0.000), 79 of 240 MT elements in tension;
+/// the compressed ones carry at most 0.085 nN ("below 1 MPa"); 57 increments, 12
+/// cutbacks, 0.13 % of the strain energy dissipated. With the viscosity switched on at
+/// the first failure the same test gave 118.4 nN and 144 elements in tension: the
+/// stretched embedded cell has several nearby equilibria (the free nodes between anchors
+/// can bow either way), and which one the stabilised path finds depends on when the
+/// viscosity starts (`docs/embedded-elements.md`). The bounds below hold for both.
 #[test]
 fn embedded_microtubules_complete_the_tension_test_and_carry_tension() {
     let free = tension("tension-free", "free");
@@ -100,7 +105,7 @@ fn embedded_microtubules_complete_the_tension_test_and_carry_tension() {
     let f_free = last(&free).force_nn;
     let f_emb = last(&embedded).force_nn;
     assert!(
-        f_emb > 1.15 * f_free,
+        f_emb > 1.1 * f_free,
         "embedded {f_emb} nN vs free {f_free} nN"
     );
     let v = |s: &cellmech::run::RunSummary, k: &str| s.final_values[k];
@@ -111,6 +116,6 @@ fn embedded_microtubules_complete_the_tension_test_and_carry_tension() {
         "MT max {} nN of {f_emb} nN",
         v(&embedded, "microtubule_axial_force_max_nN")
     );
-    assert!(v(&embedded, "microtubule_in_tension") > 100.0);
+    assert!(v(&embedded, "microtubule_in_tension") > 50.0);
     assert!(v(&embedded, "microtubule_axial_force_min_nN") > -0.5);
 }

@@ -98,14 +98,19 @@ pub struct Stabilization {
     pub activation: Activation,
 }
 
+/// Failed attempts in a row (the same increment cut again and again) after which
+/// [`Activation::OnDifficulty`] switches the viscosity on.
+pub const ON_DIFFICULTY_FAILURES: usize = 3;
+
 /// When viscous stabilisation switches on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Activation {
     /// From the step's first increment (as Abaqus `*STATIC, STABILIZE`).
     Always,
-    /// At the first failed increment of the step: a step that converges without it is
-    /// solved exactly as without stabilisation.
+    /// When [`ON_DIFFICULTY_FAILURES`] attempts of one increment have failed in a row (an
+    /// ordinary cutback or two is left to the increment control): a step that converges
+    /// without it is solved exactly as without stabilisation.
     OnDifficulty,
 }
 

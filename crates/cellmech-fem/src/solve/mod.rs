@@ -15,7 +15,9 @@ mod problem;
 mod stabilize;
 mod step;
 
-pub use control::{Activation, Convergence, IterationMethod, Stabilization, StepControl};
+pub use control::{
+    Activation, Convergence, IterationMethod, Stabilization, StepControl, ON_DIFFICULTY_FAILURES,
+};
 pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};

@@ -16,8 +16,11 @@
 //!
 //! With [`Activation::OnDifficulty`] the stabiliser sets its weights and calibrates `c` on
 //! the step's first increment as usual (on the undamped predictor the solve computes
-//! anyway) but keeps the viscosity off until an increment fails; then it switches on,
-//! boosted as after any failure. A step that converges without it is solved exactly as
+//! anyway) but keeps the viscosity off until one increment has failed
+//! [`ON_DIFFICULTY_FAILURES`] times in a row (ordinary cutbacks are the increment control's
+//! business: switching on at the first one changed the bonded-contact path of the cell
+//! compression test, see `docs/stabilization.md`); then it switches on, boosted as after
+//! any failure. A step that converges without it is solved exactly as
 //! without stabilisation.
 //!
 //! # The damping factor
@@ -45,7 +48,7 @@
 //! fails (the structure is still unstable there), the damped state is kept and the
 //! remaining viscous force is reported.
 
-use super::control::{Activation, Stabilization};
+use super::control::{Activation, Stabilization, ON_DIFFICULTY_FAILURES};
 
 /// Factor on `c` after a failed increment.
 const BOOST: f64 = 10.0;
@@ -73,6 +76,8 @@ pub(super) struct Stabilizer {
     pub weighted: bool,
     /// Whether the viscosity is switched on (see [`Activation`]).
     pub active: bool,
+    /// Failed attempts since the last converged increment.
+    pub failures_in_a_row: usize,
     /// Energy dissipated over the step's committed increments (nN·µm).
     pub dissipated: f64,
     /// Times `c` was halved to keep the dissipated energy small.
@@ -111,6 +116,7 @@ impl Stabilizer {
             dt: 1.0,
             weighted: false,
             active: settings.activation == Activation::Always,
+            failures_in_a_row: 0,
             dissipated: 0.0,
             halvings: 0,
         }
@@ -148,7 +154,13 @@ impl Stabilizer {
     /// shorter, so `c/Δt` grows twentyfold per cut), up to `MAX_BOOST` times the base.
     /// A stabiliser waiting for difficulty switches on, boosted the same way.
     pub fn boost(&mut self) {
-        self.active = true;
+        self.failures_in_a_row += 1;
+        if !self.active {
+            if self.failures_in_a_row < ON_DIFFICULTY_FAILURES {
+                return;
+            }
+            self.active = true;
+        }
         if let Some(c) = self.factor.as_mut() {
             *c = (*c * BOOST).min(MAX_BOOST * self.base);
         }
@@ -218,6 +230,7 @@ impl Stabilizer {
     /// `easy` increment or when the step's dissipated energy exceeds the accuracy
     /// tolerance. Returns the step's dissipated fraction.
     pub fn commit(&mut self, increment: f64, strain_energy: f64, easy: bool) -> f64 {
+        self.failures_in_a_row = 0;
         self.dissipated += increment;
         let fraction = if strain_energy.abs() > 0.0 {
             self.dissipated / strain_energy.abs()
