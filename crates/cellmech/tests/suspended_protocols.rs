@@ -117,6 +117,7 @@ fn tension_test_stiffens_and_elongates_the_nucleus_along_the_stretch() {
         "tension.csv",
         "tension-force.png",
         "tension-nucleus.png",
+        "tension-stiffness.png",
         "fields.pvd",
     ] {
         assert!(dir.join(file).exists(), "{file}");

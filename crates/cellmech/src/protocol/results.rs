@@ -238,6 +238,27 @@ pub fn write_protocol_results(
             ],
         ),
     ];
+    let mut plots = plots.to_vec();
+    if sign > 0.0 {
+        // The validation band: normalised stiffness 2.6 ± 0.5 kPa near 100 % elongation
+        // (Nagayama et al. 2006, shared/spec/cell-models.md "Validation data").
+        let x_end = d.max(results.curve.last().map_or(0.0, |p| p.displacement_um));
+        let band = |label: &str, k: f64| Series {
+            label: label.into(),
+            points: vec![(0.0, k), (x_end, k)],
+            style: SeriesStyle::Line,
+        };
+        plots.push((
+            format!("{stem}-stiffness.{plot_extension}"),
+            "normalised stiffness F/(pi D^2/4)/(elongation/D) (kPa)",
+            vec![
+                series("model", |p| p.normalised_stiffness_kpa),
+                band("experiments 2.6 kPa (Nagayama 2006)", 2.6),
+                band("2.6 - 0.5 kPa", 2.1),
+                band("2.6 + 0.5 kPa", 3.1),
+            ],
+        ));
+    }
     for (file, y_label, series) in plots {
         let spec = PlotSpec {
             title: title.into(),
