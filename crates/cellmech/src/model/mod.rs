@@ -4,6 +4,7 @@
 //! engine problem (DOFs, terms, steps, curve DOFs). Nothing here imports `scenario`,
 //! `cell` or `protocol`.
 
+pub mod filament;
 pub mod filaments;
 mod spec;
 pub mod structures;

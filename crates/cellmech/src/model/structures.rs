@@ -20,7 +20,7 @@ use cellmech_fem::term::Term;
 use cellmech_fem::element::beam::BeamSection;
 use cellmech_fem::material::AxialLaw;
 
-use super::filaments::Filament;
+use super::filament::Filament;
 
 /// The element and material of a resolved filament group.
 #[derive(Debug, Clone, PartialEq)]
