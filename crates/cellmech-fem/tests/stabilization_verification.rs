@@ -268,3 +268,45 @@ fn on_difficulty_is_exact_until_the_limit_point_then_snaps_through() {
     assert!((y - inverted_branch(target)).abs() <= 1e-8 * A);
     assert!(report.unwrap().equilibrated);
 }
+
+#[test]
+fn a_stabilised_step_without_an_equilibrium_at_its_end_fails_instead_of_reporting_it() {
+    // A bar free to slide along its axis (only its transverse motion held) and pulled
+    // along it: a rigid-body mechanism with no equilibrium, so only the viscosity can carry
+    // the load. The step must not end as if it had converged.
+    let x = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+    let bar = TrussSet::new("bar", "strut", &x, vec![[0, 1]], AxialLaw::linear(EA, 1.0)).unwrap();
+    let mut p = Problem::new(
+        DofMap::translational(2),
+        vec![Box::new(bar)],
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut step = Step::new("pull a free bar");
+    step.prescribed = [1, 2, 4, 5].iter().map(|&d| (d, Motion::Hold)).collect();
+    step.loads = vec![NodalLoad { dof: 3, value: 1.0 }];
+    step.control.stabilization = Some(Stabilization::default());
+    let mut times = Times::default();
+    let error = p.run_step(&step, &mut times).unwrap_err();
+    // The viscosity carries it through the step, but the end is no equilibrium.
+    assert!(
+        matches!(
+            error,
+            cellmech_fem::solve::SolveError::NotEquilibrated { viscous_force_ratio, .. }
+                if viscous_force_ratio > 0.5
+        ),
+        "{error}"
+    );
+    // Nothing past the last equilibrium was reported as converged at the step's end.
+    assert!(times.0.iter().all(|&t| t < 1.0), "{:?}", times.0);
+}
+
+/// Step times of the converged increments.
+#[derive(Default)]
+struct Times(Vec<f64>);
+
+impl Observer for Times {
+    fn on_increment(&mut self, _problem: &Problem, report: &IncrementReport<'_>) {
+        self.0.push(report.step_time);
+    }
+}

@@ -96,6 +96,10 @@ pub struct Stabilization {
     pub equilibrate_at_end: bool,
     /// From the step's start, or only once an increment has failed.
     pub activation: Activation,
+    /// Largest ‖viscous forces‖ / force scale accepted in the step's final state when the
+    /// re-solve without viscosity fails; above it the step fails (its results would not be
+    /// an equilibrium).
+    pub max_end_viscous_force: f64,
 }
 
 /// Failed attempts in a row (the same increment cut again and again) after which
@@ -122,6 +126,7 @@ impl Default for Stabilization {
             factor: None,
             equilibrate_at_end: true,
             activation: Activation::Always,
+            max_end_viscous_force: 1e-3,
         }
     }
 }
@@ -140,6 +145,7 @@ impl Stabilization {
         };
         positive("energy_fraction", self.energy_fraction)?;
         positive("accuracy_tolerance", self.accuracy_tolerance)?;
+        positive("max_end_viscous_force", self.max_end_viscous_force)?;
         if let Some(c) = self.factor {
             positive("factor", c)?;
         }

@@ -84,6 +84,22 @@ pub enum SolveError {
         /// The value at the end of the step.
         last: f64,
     },
+    /// A stabilised step ended in a state that is not an equilibrium: the re-solve without
+    /// viscosity failed and the viscous forces left exceed the accepted fraction.
+    #[error(
+        "step '{step}' reached its end only with viscous stabilisation: the state there is not an \
+         equilibrium (viscous forces {viscous_force_ratio:.3e} of the force scale, more than the \
+         accepted {max:.1e}; the re-solve without viscosity failed), so its results are not reported \
+         as converged; the increments before it are written"
+    )]
+    NotEquilibrated {
+        /// Step name.
+        step: String,
+        /// ‖viscous forces‖ / force scale at the end.
+        viscous_force_ratio: f64,
+        /// The accepted fraction.
+        max: f64,
+    },
     /// The thread pool could not be built (the system refused the threads).
     #[error("cannot start the solver's threads: {0}")]
     Threads(String),

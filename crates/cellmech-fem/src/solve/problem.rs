@@ -372,6 +372,25 @@ impl Problem {
                         observer,
                         &mut iterations,
                     );
+                    if let (true, Some(st), Some(settings)) =
+                        (final_increment, stabilization, control.stabilization)
+                    {
+                        if !st.equilibrated
+                            && st.viscous_force_ratio > settings.max_end_viscous_force
+                        {
+                            // Back to the last equilibrium, which is what was reported.
+                            for term in &mut self.terms {
+                                term.rollback();
+                            }
+                            self.u = saved_u;
+                            self.stabilizer = None;
+                            return Err(SolveError::NotEquilibrated {
+                                step: step.name.clone(),
+                                viscous_force_ratio: st.viscous_force_ratio,
+                                max: settings.max_end_viscous_force,
+                            });
+                        }
+                    }
                     for term in &mut self.terms {
                         term.commit(&self.u, &self.dof_map);
                     }

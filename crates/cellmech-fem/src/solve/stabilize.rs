@@ -12,7 +12,8 @@
 //! of unit density instead; the tangent's diagonal exists for every DOF type (rotations,
 //! filament-only nodes), needs no element method, and scales with the local stiffness, so
 //! the damping factor `c` is dimensionless and does not depend on the units or the mesh.
-//! Constrained (slave) and prescribed DOFs are not damped.
+//! A damped DOF whose diagonal is zero (a mechanism) gets the mean weight. Constrained
+//! (slave) and prescribed DOFs are not damped.
 //!
 //! With [`Activation::OnDifficulty`] the stabiliser sets its weights and calibrates `c` on
 //! the step's first increment as usual (on the undamped predictor the solve computes
@@ -124,8 +125,21 @@ impl Stabilizer {
 
     /// Sets the weights from the tangent's diagonal (`diagonal(d)`) on the damped DOFs.
     pub fn set_weights(&mut self, damped: impl Fn(usize) -> bool, diagonal: impl Fn(usize) -> f64) {
+        let (mut sum, mut count) = (0.0, 0usize);
         for (d, w) in self.weight.iter_mut().enumerate() {
             *w = if damped(d) { diagonal(d).abs() } else { 0.0 };
+            if *w > 0.0 {
+                sum += *w;
+                count += 1;
+            }
+        }
+        // A damped DOF with no stiffness of its own (a mechanism, e.g. a straight unstressed
+        // bar pushed sideways) is where viscosity is needed most: it gets the mean weight.
+        let mean = if count > 0 { sum / count as f64 } else { 1.0 };
+        for (d, w) in self.weight.iter_mut().enumerate() {
+            if *w == 0.0 && damped(d) {
+                *w = mean;
+            }
         }
         self.weighted = true;
     }
