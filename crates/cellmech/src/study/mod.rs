@@ -105,8 +105,7 @@ pub fn run_study(
         .iter()
         .filter(|c| run::read_record(&run::case_dir(&options.out, &c.name)).is_some())
         .count();
-    let ran_records = run::run_cases(spec, &cases, options, on_case)?;
-    let _ = ran_records;
+    run::run_cases(spec, &cases, options, on_case)?;
     let mut outcome = collect(spec, &options.out)?;
     let recorded = outcome.records.iter().flatten().count();
     outcome.ran = recorded.saturating_sub(before);

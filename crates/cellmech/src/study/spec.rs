@@ -219,7 +219,7 @@ pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<StudySpec, StudyErr
         .axis
         .iter()
         .enumerate()
-        .map(|(i, a)| axis(a, i, &base_with_set).map_err(|m| invalid(format!("axis[{i}]: {m}"))))
+        .map(|(i, a)| axis(a, &base_with_set).map_err(|m| invalid(format!("axis[{i}]: {m}"))))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(StudySpec {
         title: file
@@ -338,7 +338,7 @@ fn factors(a: &AxisSection) -> Result<Vec<f64>, String> {
     Ok(f)
 }
 
-fn axis(a: &AxisSection, _index: usize, base: &toml::Table) -> Result<Axis, String> {
+fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
     let unexpected = |keys: &[(&str, bool)]| -> Result<(), String> {
         for (k, present) in keys {
             if *present {
@@ -355,6 +355,7 @@ fn axis(a: &AxisSection, _index: usize, base: &toml::Table) -> Result<Axis, Stri
                 ("factors", a.factors.is_some()),
                 ("parameter", a.parameter.is_some()),
                 ("values", a.values.is_some()),
+                ("poisson_ratio", a.poisson_ratio.is_some()),
             ])?;
             let families = a.families.clone().unwrap_or_else(|| {
                 vec!["actin".into(), "microtubule".into(), "intermediate".into()]
@@ -401,6 +402,7 @@ fn axis(a: &AxisSection, _index: usize, base: &toml::Table) -> Result<Axis, Stri
                 ("families", a.families.is_some()),
                 ("parameter", a.parameter.is_some()),
                 ("values", a.values.is_some()),
+                ("poisson_ratio", a.poisson_ratio.is_some()),
             ])?;
             let components = a.components.clone().unwrap_or_else(|| {
                 [
@@ -440,6 +442,7 @@ fn axis(a: &AxisSection, _index: usize, base: &toml::Table) -> Result<Axis, Stri
                 ("components", a.components.is_some()),
                 ("parameter", a.parameter.is_some()),
                 ("values", a.values.is_some()),
+                ("poisson_ratio", a.poisson_ratio.is_some()),
             ])?;
             let key = "membrane.thickness";
             let v = base_cell_number(base, key)?;
@@ -455,6 +458,13 @@ fn axis(a: &AxisSection, _index: usize, base: &toml::Table) -> Result<Axis, Stri
             true
         }
         "compressibility" => {
+            unexpected(&[
+                ("families", a.families.is_some()),
+                ("components", a.components.is_some()),
+                ("factors", a.factors.is_some()),
+                ("parameter", a.parameter.is_some()),
+                ("values", a.values.is_some()),
+            ])?;
             let nu = a.poisson_ratio.unwrap_or(0.3);
             if !(nu > -1.0 && nu < 0.5) {
                 return Err(format!(
@@ -603,5 +613,107 @@ impl StudySpec {
             .map(|(a, &m)| if a.compared { 0 } else { m })
             .collect();
         cases.iter().position(|c| c.members == wanted)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn study(axes: &str) -> Result<StudySpec, StudyError> {
+        parse(
+            &format!("title = \"t\"\nbase = \"suspended-tension\"\n{axes}"),
+            "test",
+            Path::new("."),
+        )
+    }
+
+    #[test]
+    fn a_cross_product_compares_each_case_with_its_own_control() {
+        let spec = study(
+            "[[axis]]\nkind = \"cases\"\n[[axis.case]]\nname = \"a\"\n[[axis.case]]\nname = \"b\"\nset = { \"cell.seed\" = 7 }\n\
+             [[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\", \"microtubule\"]\n",
+        )
+        .unwrap();
+        let cases = spec.cases();
+        let names: Vec<&str> = cases.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "a",
+                "a.no-actin",
+                "a.no-microtubule",
+                "a.no-actin-microtubule",
+                "b",
+                "b.no-actin",
+                "b.no-microtubule",
+                "b.no-actin-microtubule"
+            ]
+        );
+        // The disruption axis is compared, the cases axis is context.
+        let control = |name: &str| {
+            let case = cases.iter().find(|c| c.name == name).unwrap();
+            cases[spec.control_of(&cases, case).unwrap()].name.clone()
+        };
+        assert_eq!(control("b.no-actin-microtubule"), "b");
+        assert_eq!(control("a.no-microtubule"), "a");
+        assert_eq!(control("b"), "b");
+        let b = cases.iter().find(|c| c.name == "b.no-actin").unwrap();
+        assert!(b
+            .set
+            .iter()
+            .any(|(k, v)| k == "cell.seed" && v.as_integer() == Some(7)));
+        assert!(b
+            .set
+            .iter()
+            .any(|(k, v)| k == "families.actin.enabled" && v.as_bool() == Some(false)));
+    }
+
+    #[test]
+    fn moduli_are_factors_of_the_base_value_with_its_unit() {
+        let spec = study(
+            "[set]\n\"cell.cytoplasm.shear_modulus\" = \"0.2 kPa\"\n\
+             [[axis]]\nkind = \"modulus\"\ncomponents = [\"cytoplasm\", \"actin\"]\nfactors = [0.5]\n",
+        )
+        .unwrap();
+        let cases = spec.cases();
+        assert_eq!(cases.len(), 3);
+        let set = |name: &str| cases.iter().find(|c| c.name == name).unwrap().set.clone();
+        assert!(set("cytoplasm-x0p5")
+            .iter()
+            .any(|(k, v)| k == "cell.cytoplasm.shear_modulus" && v.as_str() == Some("0.1 kPa")));
+        assert!(set("actin-x0p5")
+            .iter()
+            .any(|(k, v)| k == "families.actin.modulus_scale" && v.as_float() == Some(0.5)));
+    }
+
+    #[test]
+    fn bad_axes_are_rejected_with_the_key() {
+        let err = |axes: &str| study(axes).unwrap_err().to_string();
+        assert!(err("[[axis]]\nkind = \"disruption\"\nfactors = [2.0]\n").contains("`factors`"));
+        assert!(err("[[axis]]\nkind = \"bogus\"\n").contains("disruption"));
+        assert!(err("[[axis]]\nkind = \"modulus\"\nfactors = [0.0]\n").contains("factors"));
+        assert!(err("[[axis]]\nkind = \"grid\"\nvalues = [1]\n").contains("parameter"));
+        assert!(
+            err("[[axis]]\nkind = \"compressibility\"\npoisson_ratio = 0.7\n")
+                .contains("poisson_ratio")
+        );
+    }
+
+    #[test]
+    fn shards_split_the_cases_exactly_once() {
+        let spec = study("[[axis]]\nkind = \"modulus\"\n").unwrap();
+        let cases = spec.cases();
+        for n in 1..5 {
+            let mut seen = vec![0; cases.len()];
+            for k in 0..n {
+                for (i, c) in cases.iter().enumerate() {
+                    if super::super::run::shard_of(&c.name, n) == k {
+                        seen[i] += 1;
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s == 1));
+        }
     }
 }
