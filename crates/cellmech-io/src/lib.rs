@@ -35,7 +35,9 @@ pub use json_out::{write_json_atomic, JsonError};
 pub use plot::{plot_xy, PlotError, PlotSpec, Series, SeriesStyle};
 pub use pvd::PvdSeries;
 pub use view3d::{plot_model_picture, LineGroup, ModelPicture, View3d};
-pub use vtu::{vtu_string, write_vtu, Field, VtuBlock, VtuError, VtuFrame};
+pub use vtu::{
+    read_data_array, read_f64_array, vtu_string, write_vtu, Field, VtuBlock, VtuError, VtuFrame,
+};
 
 #[cfg(test)]
 pub(crate) mod test_util {

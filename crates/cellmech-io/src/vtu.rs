@@ -293,8 +293,28 @@ fn base64_encode(bytes: &[u8], out: &mut String) {
     }
 }
 
-/// Used by the tests of this crate to read files back.
-#[cfg(test)]
+/// The payload bytes of the binary `DataArray` named `name` in VTU text written by
+/// [`vtu_string`] (base64 with a UInt64 byte-count header, which is dropped). `None` when the
+/// file has no such array. For tests and post-processing that read our files back.
+pub fn read_data_array(vtu: &str, name: &str) -> Option<Vec<u8>> {
+    let start = vtu.find(&format!("Name=\"{name}\""))?;
+    let open = start + vtu[start..].find('>')? + 1;
+    let close = open + vtu[open..].find('<')?;
+    let bytes = base64_decode(&vtu[open..close]);
+    (bytes.len() >= 8).then(|| bytes[8..].to_vec())
+}
+
+/// A `Float64` array of VTU text as numbers (see [`read_data_array`]).
+pub fn read_f64_array(vtu: &str, name: &str) -> Option<Vec<f64>> {
+    Some(
+        read_data_array(vtu, name)?
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect(),
+    )
+}
+
+/// Decodes base64 (whitespace ignored).
 pub(crate) fn base64_decode(text: &str) -> Vec<u8> {
     let mut out = Vec::new();
     let digits: Vec<u32> = text

@@ -329,36 +329,7 @@ fn a_filament_list_that_does_not_match_the_elements_is_a_build_error() {
     assert!(err.contains("cover 3 of 4 elements"), "{err}");
 }
 
-/// A Float64 (or any 8-byte) DataArray of a binary VTU file (base64, UInt64 size header).
+/// A Float64 DataArray of a binary VTU file.
 fn float64_array(vtu: &str, name: &str) -> Vec<f64> {
-    let start = vtu
-        .find(&format!("Name=\"{name}\""))
-        .unwrap_or_else(|| panic!("no {name}"));
-    let open = start + vtu[start..].find('>').unwrap() + 1;
-    let close = open + vtu[open..].find('<').unwrap();
-    let text: Vec<u8> = vtu[open..close]
-        .bytes()
-        .filter(|c| !c.is_ascii_whitespace())
-        .collect();
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => c - b'A',
-        b'a'..=b'z' => c - b'a' + 26,
-        b'0'..=b'9' => c - b'0' + 52,
-        b'+' => 62,
-        _ => 63,
-    };
-    let mut bytes = Vec::new();
-    for chunk in text.chunks(4) {
-        let n = chunk.iter().filter(|&&c| c != b'=').count();
-        let bits = chunk
-            .iter()
-            .map(|&c| if c == b'=' { 0 } else { value(c) as u32 })
-            .fold(0u32, |acc, v| (acc << 6) | v);
-        let b = [(bits >> 16) as u8, (bits >> 8) as u8, bits as u8];
-        bytes.extend_from_slice(&b[..n - 1]);
-    }
-    bytes[8..]
-        .chunks(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
-        .collect()
+    cellmech_io::read_f64_array(vtu, name).unwrap_or_else(|| panic!("no array {name}"))
 }

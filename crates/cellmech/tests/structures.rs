@@ -318,31 +318,7 @@ fn structures_run_writes_family_columns_and_line_cells() {
 
 /// The bytes of a binary (base64, UInt64 header) DataArray of a VTU file.
 fn data_array(vtu: &str, name: &str) -> Vec<u8> {
-    let start = vtu.find(&format!("Name=\"{name}\"")).unwrap();
-    let open = start + vtu[start..].find('>').unwrap() + 1;
-    let close = open + vtu[open..].find('<').unwrap();
-    let text: Vec<u8> = vtu[open..close]
-        .bytes()
-        .filter(|c| !c.is_ascii_whitespace())
-        .collect();
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => c - b'A',
-        b'a'..=b'z' => c - b'a' + 26,
-        b'0'..=b'9' => c - b'0' + 52,
-        b'+' => 62,
-        _ => 63,
-    };
-    let mut out = Vec::new();
-    for chunk in text.chunks(4) {
-        let n = chunk.iter().filter(|&&c| c != b'=').count();
-        let bits = chunk
-            .iter()
-            .map(|&c| if c == b'=' { 0 } else { value(c) as u32 })
-            .fold(0u32, |acc, v| (acc << 6) | v);
-        let bytes = [(bits >> 16) as u8, (bits >> 8) as u8, bits as u8];
-        out.extend_from_slice(&bytes[..n - 1]);
-    }
-    out[8..].to_vec()
+    cellmech_io::read_data_array(vtu, name).unwrap_or_else(|| panic!("no array {name}"))
 }
 
 const CAPS: &str = r#"
