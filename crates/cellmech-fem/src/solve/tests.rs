@@ -83,14 +83,14 @@ fn newton_prescribed_stretch_of_spring_chain_gives_series_stiffness_reaction() {
     assert!((rec.increments.last().unwrap().0 - 1.0).abs() < 1e-12);
 }
 
-#[test]
-fn newton_converges_quadratically_on_a_large_rotation_spring_problem() {
-    // A spring fixed at the origin, its free end loaded sideways: large rotation.
+/// A spring fixed at the origin, its free end loaded sideways by (4, 3) nN: large rotation.
+/// Equilibrium: the spring aligns with the load, N = 5 = k (l - 0.8), so l = 1.3.
+fn large_rotation_spring() -> (Problem, Step) {
     let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
     let mut set = springs(&nodes, &[[0, 1]], 10.0);
     set.rest_length[0] = 0.8; // prestretched, so the lateral stiffness N/l is not zero
     let terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
-    let mut p = Problem::new(
+    let p = Problem::new(
         DofMap::translational(2),
         terms,
         Box::new(DenseSolver::default()),
@@ -107,6 +107,12 @@ fn newton_converges_quadratically_on_a_large_rotation_spring_problem() {
         NodalLoad { dof: 3, value: 4.0 },
         NodalLoad { dof: 4, value: 3.0 },
     ];
+    (p, step)
+}
+
+#[test]
+fn newton_converges_quadratically_on_a_large_rotation_spring_problem() {
+    let (mut p, mut step) = large_rotation_spring();
     step.control.initial_increment = 1.0;
     step.control.max_increment = 1.0;
     let mut rec = Recorder::default();
@@ -269,30 +275,10 @@ fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
 
 #[test]
 fn bfgs_reaches_the_same_equilibrium_with_fewer_factorisations() {
-    // A spring fixed at the origin, its free end loaded sideways (large rotation), solved by
-    // full Newton and by BFGS: same answer to the tolerance, fewer factorisations.
+    // The large-rotation spring solved by full Newton and by BFGS: the same answer to the
+    // tolerance, fewer factorisations.
     let solve = |method: IterationMethod| {
-        let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
-        let mut set = springs(&nodes, &[[0, 1]], 10.0);
-        set.rest_length[0] = 0.8;
-        let terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
-        let mut p = Problem::new(
-            DofMap::translational(2),
-            terms,
-            Box::new(DenseSolver::default()),
-        )
-        .unwrap();
-        let mut step = Step::new("load");
-        step.prescribed = vec![
-            (0, Motion::Hold),
-            (1, Motion::Hold),
-            (2, Motion::Hold),
-            (5, Motion::Hold),
-        ];
-        step.loads = vec![
-            NodalLoad { dof: 3, value: 4.0 },
-            NodalLoad { dof: 4, value: 3.0 },
-        ];
+        let (mut p, mut step) = large_rotation_spring();
         step.control.initial_increment = 0.25;
         step.control.convergence.method = method;
         let mut rec = Recorder::default();
@@ -305,5 +291,7 @@ fn bfgs_reaches_the_same_equilibrium_with_fewer_factorisations() {
         (x - xb).abs() < 1e-7 && (y - yb).abs() < 1e-7,
         "{x} {y} vs {xb} {yb}"
     );
+    // Both at the closed-form equilibrium (1.3·0.8, 1.3·0.6).
+    assert!((1.0 + xb - 1.04).abs() < 1e-7 && (yb - 0.78).abs() < 1e-7);
     assert!(bfgs < newton, "BFGS {bfgs} factorisations, Newton {newton}");
 }
