@@ -2,6 +2,8 @@
 
 use super::problem::Problem;
 use super::step::Step;
+use crate::assembly::Assembler;
+use crate::constraint::condense::Condensation;
 use crate::constraint::LinearConstraints;
 use crate::linsolve::SparsityPattern;
 
@@ -24,6 +26,19 @@ pub(super) fn reduce_untouched(constraints: &LinearConstraints, untouched: &mut 
     }
 }
 
+/// The pattern the linear solver factorises: the reduced one when constraints are
+/// condensed, else the assembler's (a free function so that callers can borrow other
+/// fields of [`Problem`] mutably at the same time).
+pub(super) fn solver_pattern<'a>(
+    condensation: &'a Option<Condensation>,
+    assembler: &'a Assembler,
+) -> &'a SparsityPattern {
+    match condensation {
+        Some(c) => c.reduced_pattern(),
+        None => assembler.pattern(),
+    }
+}
+
 impl Problem {
     /// The linear constraints eliminated from the system, if any.
     pub fn constraints(&self) -> Option<&LinearConstraints> {
@@ -38,10 +53,7 @@ impl Problem {
     /// The pattern of the matrix the linear solver factorises (lower triangle): the element
     /// pattern, or with constraints the reduced pattern with the master–master couplings.
     pub fn tangent_pattern(&self) -> &SparsityPattern {
-        match &self.condensation {
-            Some(c) => c.reduced_pattern(),
-            None => self.assembler.pattern(),
-        }
+        solver_pattern(&self.condensation, &self.assembler)
     }
 
     /// Stored nonzeros (lower triangle, diagonal included) of the factorised tangent.

@@ -6,6 +6,7 @@
 //! the prescribed DOFs fixed, then search along δ when the residual's projection on δ has
 //! not dropped enough. Convergence needs both the residual and the energy criterion.
 
+use super::constrained::solver_pattern;
 use super::control::{Convergence, IterationMethod, StepControl};
 use super::error::FailureReason;
 use super::observer::Observer;
@@ -435,10 +436,7 @@ impl Problem {
         })?;
         if let Some(st) = &self.stabilizer {
             st.add_forces(&self.u, &mut self.residual);
-            let pattern = match &self.condensation {
-                Some(c) => c.reduced_pattern(),
-                None => self.assembler.pattern(),
-            };
+            let pattern = solver_pattern(&self.condensation, &self.assembler);
             st.add_tangent(&mut self.work.values, |d| pattern.col_ptr[d]);
         }
         self.timings.assembly_s += start.elapsed().as_secs_f64();
@@ -452,10 +450,7 @@ impl Problem {
     fn stabilizer_needs_calibration(&mut self) -> Option<bool> {
         let st = self.stabilizer.as_mut()?;
         if !st.weighted {
-            let pattern = match &self.condensation {
-                Some(c) => c.reduced_pattern(),
-                None => self.assembler.pattern(),
-            };
+            let pattern = solver_pattern(&self.condensation, &self.assembler);
             let constraints = self.condensation.as_ref().map(|c| c.constraints());
             let (prescribed, values) = (&self.prescribed, &self.work.values);
             st.set_weights(
@@ -472,10 +467,7 @@ impl Problem {
     fn calibrate_stabilizer(&mut self) -> Result<(), FailureReason> {
         let undamped = self.factorize_and_solve();
         let energy = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
-        let pattern = match &self.condensation {
-            Some(c) => c.reduced_pattern(),
-            None => self.assembler.pattern(),
-        };
+        let pattern = solver_pattern(&self.condensation, &self.assembler);
         let Some(st) = &mut self.stabilizer else {
             return undamped;
         };

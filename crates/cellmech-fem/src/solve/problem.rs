@@ -142,10 +142,7 @@ impl Problem {
             }
             _ => None,
         };
-        let pattern = match &condensation {
-            Some(c) => c.reduced_pattern(),
-            None => assembler.pattern(),
-        };
+        let pattern = super::constrained::solver_pattern(&condensation, &assembler);
         pool.install(|| solver.analyze(pattern))?;
         let n = dof_map.num_dofs();
         let nnz = pattern.nnz();
