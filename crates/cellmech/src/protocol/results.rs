@@ -56,7 +56,7 @@ pub struct ProtocolResults {
     pub caps: Option<super::grip::CapReport>,
     /// The test curve, from the reference state on.
     pub curve: Vec<TestPoint>,
-    /// Compression: the point at the end of each compression step.
+    /// Compression: the point at the end of each compression step; AFM: at each depth.
     pub at_deformations: Vec<(f64, TestPoint)>,
     /// The last point (end of the test or the last converged increment).
     pub last: Option<TestPoint>,
@@ -96,6 +96,23 @@ pub fn write_protocol_results(
             *contact_step,
             -1.0,
             deformations.iter().map(|(s, _)| *s).collect(),
+        ),
+        ProtocolPlan::AfmIndentation {
+            tip,
+            contact_step,
+            depths,
+            retract_step,
+            ..
+        } => (
+            "afm-indentation",
+            Holder::Tool(tip.clone()),
+            *contact_step,
+            -1.0,
+            depths
+                .iter()
+                .map(|(s, _)| *s)
+                .chain(retract_step.iter().copied())
+                .collect(),
         ),
         ProtocolPlan::Prestress => return Ok(None),
     };
@@ -162,28 +179,35 @@ pub fn write_protocol_results(
             results.curve.push(point(r));
         }
     }
-    if let ProtocolPlan::MicroplateCompression { deformations, .. } = plan {
-        for (s, target) in deformations {
-            if let Some(r) = last_row_of(*s) {
-                results.at_deformations.push((*target, point(r)));
-            }
+    let targets = match plan {
+        ProtocolPlan::MicroplateCompression { deformations, .. } => deformations.clone(),
+        ProtocolPlan::AfmIndentation { depths, .. } => depths.clone(),
+        _ => Vec::new(),
+    };
+    for (s, target) in targets {
+        if let Some(r) = last_row_of(s) {
+            results.at_deformations.push((target, point(r)));
         }
     }
     results.last = results.curve.last().copied();
-    let (stem, x_label) = if sign > 0.0 {
-        ("tension", "elongation (µm)")
-    } else {
-        ("compression", "plate travel from contact (µm)")
+    let (stem, x_label, x_column) = match kind {
+        "micropipette-tension" => ("tension", "elongation (µm)", "elongation_um"),
+        "afm-indentation" => (
+            "indentation",
+            "indentation from first contact (µm)",
+            "indentation_um",
+        ),
+        _ => (
+            "compression",
+            "plate travel from contact (µm)",
+            "plate_travel_um",
+        ),
     };
     let csv = format!("{stem}.csv");
     let mut out = CurveWriter::create(
         &dir.join(&csv),
         &[
-            if sign > 0.0 {
-                "elongation_um"
-            } else {
-                "plate_travel_um"
-            },
+            x_column,
             "strain_of_diameter",
             "force_nN",
             "normalised_stiffness_kPa",
@@ -215,14 +239,21 @@ pub fn write_protocol_results(
             .collect(),
         style: SeriesStyle::LineAndMarkers,
     };
-    let title = match kind {
-        "micropipette-tension" => "Suspended cell: micropipette tension",
-        _ => "Suspended cell: microplate compression",
+    let title = match plan {
+        ProtocolPlan::MicropipetteTension { .. } => "Suspended cell: micropipette tension".into(),
+        ProtocolPlan::AfmIndentation { site, .. } => {
+            format!("Adherent cell: AFM indentation at the {site}")
+        }
+        _ => "Suspended cell: microplate compression".to_string(),
     };
     let plots = [
         (
             format!("{stem}-force.{plot_extension}"),
-            "force on the moving tool (nN)",
+            if kind == "afm-indentation" {
+                "force on the tip (nN)"
+            } else {
+                "force on the moving tool (nN)"
+            },
             vec![series("force", |p| p.force_nn)],
         ),
         (
@@ -261,7 +292,7 @@ pub fn write_protocol_results(
     }
     for (file, y_label, series) in plots {
         let spec = PlotSpec {
-            title: title.into(),
+            title: title.clone(),
             x_label: x_label.into(),
             y_label: y_label.into(),
             series,

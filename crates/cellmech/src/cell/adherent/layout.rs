@@ -1,0 +1,550 @@
+//! The adherent cell's layout: mesh (with local refinement at an indentation site), focal
+//! adhesions (FAs), actin bundles (ABs), microtubules (MTs) and intermediate filaments
+//! (IFs). Lengths in µm, the substrate is `z = 0`, the cell's long axis is `x`.
+//!
+//! * **FAs and ABs.** `bundles` ABs run along the long axis at the height `bundle_height`:
+//!   AB `k` is a straight tension-only truss between two FAs at `(∓x_k, y_k, h)` on the dome,
+//!   with `y_k` spread evenly over `bundle_spread` of the dome's half width at that height
+//!   (`y_k = s b_h (2k + 1 − n)/n`, `k = 0..n`), so the apex lies between the two middle
+//!   ABs. Each FA is the dome node nearest its site (the snap distance is reported).
+//! * **MTs** (one per FA) and **IFs** (`per_fa` per FA) are routed as in the suspended cell
+//!   (`cell::suspended::cytoskeleton`), in the frame where the ellipsoidal nucleus is the
+//!   unit sphere: `T(x) = (x − c_n) / E_n` (componentwise). Tangency is affine-invariant,
+//!   so an IF tangent to the unit sphere in that frame is tangent to the nucleus; the MT
+//!   clearance is checked in that frame against `clearance_margin / min(E_n)`, which keeps
+//!   the physical clearance at least `clearance_margin`. Every MT point must lie inside the
+//!   cell (checked).
+//! * **Indentation site.** The apex (top node), the receptor (an FA, by default the one
+//!   farthest from the nucleus centre, ties to the larger x) or the dome point above given
+//!   `(x, y)`. The mesh is refined there (see [`LocalRefinement`]).
+
+use cellmech_fem::mesh::Mesh;
+
+use super::geometry::{
+    map_reference_mesh, mesh_report, AdherentMeshReport, AdherentMeshResolution, AdherentShape,
+};
+use crate::cell::suspended::cytoskeleton::{
+    anchor_intermediate_filaments, route_microtubules, IfAnchorRule, MicrotubulePath,
+    MicrotubuleRouting,
+};
+use crate::cell::vec3::{distance, norm, V3};
+
+/// Where an AFM tip indents the adherent cell.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IndentationSite {
+    /// The top of the dome, over the nucleus, between the FAs.
+    Apex,
+    /// An FA away from the nucleus ([`AdherentCellParams::receptor`]).
+    Receptor,
+    /// The dome point above `(x, y)` (µm).
+    Point {
+        /// x (along the cell's length).
+        x: f64,
+        /// y (across).
+        y: f64,
+    },
+}
+
+/// Local refinement at the indentation site: every hex8 is split (octree, 2:1 balanced,
+/// hanging nodes tied) until its longest edge is at most
+/// `max(element_size, grading × (distance − fine_radius))`, the distance measured from
+/// the site to the element's nearest corner.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LocalRefinement {
+    /// Element size wanted within `fine_radius` of the site (µm).
+    pub element_size: f64,
+    /// Radius of the region of finest elements (µm): the material the tip touches.
+    pub fine_radius: f64,
+    /// Growth of the element size with the distance beyond `fine_radius`.
+    pub grading: f64,
+    /// Most levels of splitting.
+    pub max_levels: u8,
+}
+
+impl LocalRefinement {
+    /// Levels of splitting wanted for an element with physical corners `x`, for a site.
+    pub fn wanted_level(&self, x: &[V3; 8], site: V3) -> u8 {
+        let longest = super::geometry::HEX_EDGES
+            .iter()
+            .map(|&(i, j)| distance(x[i], x[j]))
+            .fold(0.0, f64::max);
+        let centroid: V3 = std::array::from_fn(|k| x.iter().map(|p| p[k]).sum::<f64>() / 8.0);
+        let radius = x
+            .iter()
+            .map(|p| distance(*p, centroid))
+            .fold(0.0, f64::max);
+        let d = (distance(centroid, site) - radius).max(0.0);
+        let target = self
+            .element_size
+            .max(self.grading * (d - self.fine_radius));
+        if longest <= target {
+            return 0;
+        }
+        ((longest / target).log2().ceil() as u8).min(self.max_levels)
+    }
+}
+
+/// Parameters of the adherent-cell layout (µm).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AdherentCellParams {
+    /// Cell and nucleus shape.
+    pub shape: AdherentShape,
+    /// Base mesh.
+    pub mesh: AdherentMeshResolution,
+    /// Refinement at the indentation site.
+    pub refinement: LocalRefinement,
+    /// Number of ABs (≥ 1).
+    pub bundles: usize,
+    /// Height of the ABs and their FAs above the substrate.
+    pub bundle_height: f64,
+    /// Fraction of the dome's half width at `bundle_height` the ABs are spread over.
+    pub bundle_spread: f64,
+    /// The receptor FA (index into the FAs; `None`: the one farthest from the nucleus).
+    pub receptor: Option<usize>,
+    /// Beam elements per MT.
+    pub mt_elements: usize,
+    /// Smallest MT bow (fraction of the chord).
+    pub mt_bow_min: f64,
+    /// Largest MT bow.
+    pub mt_bow_max: f64,
+    /// Smallest distance of an MT from the nucleus surface.
+    pub mt_clearance_margin: f64,
+    /// Distance of the centrosome from the nucleus surface.
+    pub centrosome_gap: f64,
+    /// Direction of the centrosome from the nucleus centre.
+    pub centrosome_direction: V3,
+    /// IFs per FA.
+    pub ifs_per_fa: usize,
+    /// Angle (rad) of the first IF on its FA's tangent circle.
+    pub if_phase: f64,
+    /// Which nucleus node anchors an IF.
+    pub if_anchor_rule: IfAnchorRule,
+    /// Seed of every random choice (MT bows).
+    pub seed: u64,
+}
+
+/// Measured quality of the layout.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AdherentLayoutReport {
+    /// Mesh quality after mapping and refinement.
+    pub mesh: AdherentMeshReport,
+    /// Hex8 elements before refinement.
+    pub base_elements: usize,
+    /// Hanging nodes of the local refinement.
+    pub hanging_nodes: usize,
+    /// Largest distance from an FA site to its node (µm).
+    pub max_fa_snap: f64,
+    /// AB lengths (µm): shortest, longest.
+    pub bundle_length_range: (f64, f64),
+    /// Smallest MT clearance from the nucleus, in the unit-nucleus frame (multiply by the
+    /// smallest nucleus semi-axis for a lower bound in µm).
+    pub min_mt_clearance_scaled: f64,
+    /// Largest IF anchor error in the unit-nucleus frame.
+    pub max_if_anchor_error_scaled: f64,
+    /// The indentation site (µm) and the dome's outward normal there.
+    pub site: Option<(V3, V3)>,
+}
+
+/// Why the adherent cell's layout could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{parameter}: {message}")]
+pub struct AdherentLayoutError {
+    /// The parameter (or part) at fault.
+    pub parameter: &'static str,
+    /// What was expected and what was found.
+    pub message: String,
+}
+
+fn fail(parameter: &'static str, message: impl Into<String>) -> AdherentLayoutError {
+    AdherentLayoutError {
+        parameter,
+        message: message.into(),
+    }
+}
+
+/// The adherent cell's geometry: mesh and routing.
+#[derive(Debug, Clone)]
+pub struct AdherentCellGeometry {
+    /// Hex8 mesh (blocks `nucleus`, `cytoplasm`); node sets `surface`, `dome`, `bottom`,
+    /// `apex`, `nucleus_surface`, `focal_adhesions`, `fa_<k>`, `if_anchors`.
+    pub mesh: Mesh,
+    /// Ties of the hanging nodes of the local refinement.
+    pub hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    /// Outer boundary faces (outward), dome and base.
+    pub boundary_faces: Vec<[usize; 4]>,
+    /// FA nodes: AB `k` has FAs `2k` (x < 0) and `2k + 1` (x > 0).
+    pub fa_nodes: Vec<usize>,
+    /// ABs as `[FA node, FA node]`.
+    pub bundles: Vec<[usize; 2]>,
+    /// Centrosome position (appended as a node by [`Self::append_microtubule_nodes`]).
+    pub centrosome: V3,
+    /// One MT per FA.
+    pub microtubules: Vec<MicrotubulePath>,
+    /// IFs as `[FA node, nucleus-surface node]`.
+    pub intermediate_filaments: Vec<[usize; 2]>,
+    /// Index of the receptor FA.
+    pub receptor: usize,
+    /// Measured quality.
+    pub report: AdherentLayoutReport,
+}
+
+impl AdherentCellParams {
+    /// Checks the parameters that the builders do not check themselves.
+    pub fn validate(&self) -> Result<(), AdherentLayoutError> {
+        self.shape.validate().map_err(|m| fail("shape", m))?;
+        let [_, _, c] = self.shape.semi_axes;
+        if self.bundles == 0 {
+            return Err(fail("bundles.count", "expected at least 1 actin bundle; found 0"));
+        }
+        let top = self.shape.nucleus_height + self.shape.nucleus_semi_axes[2];
+        if !(self.bundle_height > 0.0 && self.bundle_height < c) {
+            return Err(fail(
+                "bundles.height",
+                format!(
+                    "expected a height above the substrate below the cell height {c} µm; found \
+                     {} µm",
+                    self.bundle_height
+                ),
+            ));
+        }
+        if self.bundle_height <= top && self.bundles > 0 {
+            // ABs below the nucleus top can cross it; checked per AB in the build.
+        }
+        if !(self.bundle_spread > 0.0 && self.bundle_spread < 1.0) {
+            return Err(fail(
+                "bundles.spread",
+                format!(
+                    "expected a fraction in (0, 1) of the dome's half width; found {}",
+                    self.bundle_spread
+                ),
+            ));
+        }
+        let r = self.refinement;
+        if !(r.element_size > 0.0 && r.fine_radius >= 0.0 && r.grading > 0.0) {
+            return Err(fail(
+                "refinement",
+                format!(
+                    "expected element_size > 0, fine_radius ≥ 0, grading > 0; found {}, {}, {}",
+                    r.element_size, r.fine_radius, r.grading
+                ),
+            ));
+        }
+        let d = self.centrosome_direction;
+        if !(d.iter().all(|x| x.is_finite()) && norm(d) > 0.0) {
+            return Err(fail(
+                "microtubules.centrosome_direction",
+                format!("expected a non-zero vector; found {d:?}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The FA sites `(∓x_k, y_k, h)` on the dome, AB by AB.
+    pub fn fa_sites(&self) -> Vec<V3> {
+        let [a, b, c] = self.shape.semi_axes;
+        let h = self.bundle_height;
+        let f = (1.0 - (h / c).powi(2)).sqrt();
+        let (a_h, b_h) = (a * f, b * f);
+        let n = self.bundles as f64;
+        (0..self.bundles)
+            .flat_map(|k| {
+                let y = self.bundle_spread * b_h * (2.0 * k as f64 + 1.0 - n) / n;
+                let x = a_h * (1.0 - (y / b_h).powi(2)).sqrt();
+                [[-x, y, h], [x, y, h]]
+            })
+            .collect()
+    }
+
+    /// The centrosome: on the ray from the nucleus centre along `centrosome_direction`,
+    /// `centrosome_gap` beyond the nucleus surface.
+    pub fn centrosome(&self) -> V3 {
+        let d = crate::cell::vec3::normalize(self.centrosome_direction);
+        let e = self.shape.nucleus_semi_axes;
+        let s = 1.0 / ((d[0] / e[0]).powi(2) + (d[1] / e[1]).powi(2) + (d[2] / e[2]).powi(2)).sqrt();
+        let c = self.shape.nucleus_centre();
+        std::array::from_fn(|k| c[k] + d[k] * (s + self.centrosome_gap))
+    }
+
+    /// To the frame where the nucleus is the unit sphere at the origin.
+    fn to_unit_nucleus(&self, x: V3) -> V3 {
+        let e = self.shape.nucleus_semi_axes;
+        let c = self.shape.nucleus_centre();
+        std::array::from_fn(|k| (x[k] - c[k]) / e[k])
+    }
+
+    /// Back from the unit-nucleus frame.
+    fn from_unit_nucleus(&self, x: V3) -> V3 {
+        let e = self.shape.nucleus_semi_axes;
+        let c = self.shape.nucleus_centre();
+        std::array::from_fn(|k| c[k] + x[k] * e[k])
+    }
+}
+
+/// Index of the dome node nearest `p` among `nodes`, excluding `taken`.
+fn nearest_node(mesh: &Mesh, nodes: &[usize], p: V3, taken: &[usize]) -> Option<(usize, f64)> {
+    nodes
+        .iter()
+        .filter(|n| !taken.contains(n))
+        .map(|&n| (n, distance(mesh.nodes[n], p)))
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+}
+
+impl AdherentCellGeometry {
+    /// Builds the layout, refined at `site` when given.
+    pub fn build(
+        params: &AdherentCellParams,
+        site: Option<IndentationSite>,
+    ) -> Result<Self, AdherentLayoutError> {
+        params.validate()?;
+        let shape = &params.shape;
+        let reference = params
+            .mesh
+            .reference_mesh()
+            .map_err(|m| fail("mesh", m))?;
+        let base = map_reference_mesh(&reference, shape);
+        let base_elements = base.num_elements();
+        // FAs on the base mesh's dome nodes off the substrate (refinement keeps them).
+        let dome: Vec<usize> = base.node_sets["dome"]
+            .iter()
+            .copied()
+            .filter(|&n| base.nodes[n][2] > 1e-9)
+            .collect();
+        let mut fa_nodes = Vec::new();
+        let mut max_snap: f64 = 0.0;
+        for p in params.fa_sites() {
+            let (n, d) = nearest_node(&base, &dome, p, &fa_nodes).ok_or_else(|| {
+                fail("bundles.count", "more FAs than dome nodes: refine the base mesh")
+            })?;
+            fa_nodes.push(n);
+            max_snap = max_snap.max(d);
+        }
+        let receptor = match params.receptor {
+            Some(k) if k < fa_nodes.len() => k,
+            Some(k) => {
+                return Err(fail(
+                    "receptor",
+                    format!(
+                        "expected an FA index below {} (2 per actin bundle); found {k}",
+                        fa_nodes.len()
+                    ),
+                ))
+            }
+            None => {
+                let c = shape.nucleus_centre();
+                let mut best = 0;
+                for k in 1..fa_nodes.len() {
+                    let (pk, pb) = (base.nodes[fa_nodes[k]], base.nodes[fa_nodes[best]]);
+                    let (dk, db) = (distance(pk, c), distance(pb, c));
+                    if dk > db + 1e-9 || ((dk - db).abs() <= 1e-9 && pk[0] > pb[0]) {
+                        best = k;
+                    }
+                }
+                best
+            }
+        };
+        let site_point = match site {
+            None => None,
+            Some(IndentationSite::Apex) => Some(base.nodes[base.node_sets["apex"][0]]),
+            Some(IndentationSite::Receptor) => Some(base.nodes[fa_nodes[receptor]]),
+            Some(IndentationSite::Point { x, y }) => {
+                let z = shape.dome_height(x, y).ok_or_else(|| {
+                    fail(
+                        "site",
+                        format!(
+                            "expected a point over the cell's footprint (x²/{a}² + y²/{b}² < 1); \
+                             found ({x}, {y}) µm, off the cell",
+                            a = shape.semi_axes[0],
+                            b = shape.semi_axes[1]
+                        ),
+                    )
+                })?;
+                let p = [x, y, z];
+                if shape.dome_normal(p)[2] < 0.5 {
+                    return Err(fail(
+                        "site",
+                        format!(
+                            "expected a point where the dome is less steep than 60° (a vertical \
+                             tip would slide off); found a slope of {:.0}° at ({x}, {y}) µm",
+                            shape.dome_normal(p)[2].acos().to_degrees()
+                        ),
+                    ));
+                }
+                Some(p)
+            }
+        };
+        let (mut mesh, hanging, boundary_faces) = match site_point {
+            Some(s) => {
+                let refinement = params.refinement;
+                let refined = cellmech_fem::mesh::refine::refine_hex8(&reference, |corners| {
+                    let x = corners.map(|p| shape.map(p, false));
+                    refinement.wanted_level(&x, s)
+                })
+                .map_err(|e| fail("refinement", e.to_string()))?;
+                let mut mesh = map_reference_mesh(&refined.mesh, shape);
+                // The base mesh's nodes keep their indices and positions.
+                debug_assert!(fa_nodes.iter().all(|&n| mesh.nodes[n] == base.nodes[n]));
+                mesh.node_sets.retain(|_, v| !v.is_empty());
+                (mesh, refined.hanging, refined.boundary_faces)
+            }
+            None => {
+                let faces = cellmech_fem::mesh::generate::boundary_faces(&base);
+                (base, Vec::new(), faces)
+            }
+        };
+        let mesh_quality = mesh_report(&mesh, shape);
+        if !(mesh_quality.min_scaled_jacobian > 0.0) {
+            return Err(fail(
+                "mesh",
+                format!(
+                    "the mapped mesh has an inverted element (min scaled Jacobian {:.3}); try \
+                     other mesh divisions",
+                    mesh_quality.min_scaled_jacobian
+                ),
+            ));
+        }
+        // ABs.
+        let bundles: Vec<[usize; 2]> = (0..params.bundles)
+            .map(|k| [fa_nodes[2 * k], fa_nodes[2 * k + 1]])
+            .collect();
+        for (k, &[a, b]) in bundles.iter().enumerate() {
+            let (pa, pb) = (
+                params.to_unit_nucleus(mesh.nodes[a]),
+                params.to_unit_nucleus(mesh.nodes[b]),
+            );
+            if crate::cell::suspended::cytoskeleton::segment_distance_to_origin(pa, pb) <= 1.0 {
+                return Err(fail(
+                    "bundles.height",
+                    format!(
+                        "actin bundle {k} (y = {:.2} µm, height {} µm) passes through the \
+                         nucleus; raise bundles.height or narrow bundles.spread",
+                        mesh.nodes[a][1], params.bundle_height
+                    ),
+                ));
+            }
+        }
+        let lengths: Vec<f64> = bundles
+            .iter()
+            .map(|&[a, b]| distance(mesh.nodes[a], mesh.nodes[b]))
+            .collect();
+        // MTs in the unit-nucleus frame.
+        let centrosome = params.centrosome();
+        if shape.level(centrosome) >= 1.0 || centrosome[2] <= 0.0 {
+            return Err(fail(
+                "microtubules.centrosome_gap",
+                format!("the centrosome at {centrosome:?} µm lies outside the cell"),
+            ));
+        }
+        let min_axis = shape.nucleus_semi_axes.iter().cloned().fold(f64::INFINITY, f64::min);
+        let routing = MicrotubuleRouting {
+            centrosome: params.to_unit_nucleus(centrosome),
+            cell_radius: 0.0,
+            nucleus_radius: 1.0,
+            elements: params.mt_elements,
+            bow_min: params.mt_bow_min,
+            bow_max: params.mt_bow_max,
+            clearance_margin: params.mt_clearance_margin / min_axis,
+            seed: params.seed,
+        };
+        let fa_scaled: Vec<V3> = fa_nodes
+            .iter()
+            .map(|&n| params.to_unit_nucleus(mesh.nodes[n]))
+            .collect();
+        let (mut microtubules, min_clearance) = route_microtubules(&routing, &fa_nodes, &fa_scaled)
+            .map_err(|e| fail("microtubules", e.to_string()))?;
+        for (k, mt) in microtubules.iter_mut().enumerate() {
+            for p in mt.points.iter_mut() {
+                *p = params.from_unit_nucleus(*p);
+            }
+            let last = mt.points.len() - 1;
+            mt.points[last] = mesh.nodes[mt.fa_node];
+            if let Some(p) = mt.points[1..last]
+                .iter()
+                .find(|p| shape.level(**p) >= 1.0 || p[2] <= 0.0)
+            {
+                return Err(fail(
+                    "microtubules",
+                    format!(
+                        "MT {k} leaves the cell at {p:.2?} µm; lower microtubules.bow_max or \
+                         move the centrosome"
+                    ),
+                ));
+            }
+            // The plane normal of the section was in the scaled frame; a unit vector
+            // perpendicular enough for the beam's reference direction after the map.
+            let n = mt.plane_normal;
+            let e = shape.nucleus_semi_axes;
+            mt.plane_normal = crate::cell::vec3::normalize([n[0] / e[0], n[1] / e[1], n[2] / e[2]]);
+        }
+        // IFs in the unit-nucleus frame.
+        let inner = mesh.node_sets["nucleus_surface"].clone();
+        let scaled = Mesh {
+            nodes: mesh.nodes.iter().map(|&x| params.to_unit_nucleus(x)).collect(),
+            ..Mesh::default()
+        };
+        let ifs = anchor_intermediate_filaments(
+            &scaled,
+            &inner,
+            &fa_nodes,
+            1.0,
+            params.ifs_per_fa,
+            params.if_phase,
+            params.if_anchor_rule,
+        )
+        .map_err(|e| fail("intermediate", e.to_string()))?;
+        mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
+        for (k, &n) in fa_nodes.iter().enumerate() {
+            mesh.insert_node_set(format!("fa_{k}"), vec![n]);
+        }
+        mesh.insert_node_set("receptor", vec![fa_nodes[receptor]]);
+        mesh.insert_node_set("if_anchors", ifs.filaments.iter().map(|f| f[1]).collect());
+        let report = AdherentLayoutReport {
+            mesh: mesh_quality,
+            base_elements,
+            hanging_nodes: hanging.len(),
+            max_fa_snap: max_snap,
+            bundle_length_range: lengths
+                .iter()
+                .fold((f64::INFINITY, 0.0), |(lo, hi), &l| (lo.min(l), hi.max(l))),
+            min_mt_clearance_scaled: min_clearance,
+            max_if_anchor_error_scaled: ifs.anchor_errors.iter().cloned().fold(0.0, f64::max),
+            site: site_point.map(|p| (p, shape.dome_normal(p))),
+        };
+        Ok(Self {
+            mesh,
+            hanging,
+            boundary_faces,
+            fa_nodes,
+            bundles,
+            centrosome,
+            microtubules,
+            intermediate_filaments: ifs.filaments,
+            receptor,
+            report,
+        })
+    }
+
+    /// Appends the centrosome and the MTs' interior points as nodes (node sets
+    /// `centrosome`, `microtubule_interior`, `microtubule_anchors`) and returns each MT's
+    /// chain: centrosome, interior nodes, FA node.
+    pub fn append_microtubule_nodes(&self, mesh: &mut Mesh) -> Vec<Vec<usize>> {
+        let centrosome = mesh.nodes.len();
+        mesh.nodes.push(self.centrosome);
+        mesh.insert_node_set("centrosome", vec![centrosome]);
+        let chains: Vec<Vec<usize>> = self
+            .microtubules
+            .iter()
+            .map(|mt| {
+                let mut chain = vec![centrosome];
+                for &p in &mt.points[1..mt.points.len() - 1] {
+                    chain.push(mesh.nodes.len());
+                    mesh.nodes.push(p);
+                }
+                chain.push(mt.fa_node);
+                chain
+            })
+            .collect();
+        crate::cell::suspended::insert_microtubule_node_sets(mesh, &chains);
+        chains
+    }
+}
