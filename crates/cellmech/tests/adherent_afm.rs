@@ -6,10 +6,11 @@ use cellmech::cell::adherent::{AdherentCell, IndentationSite};
 use cellmech::experiment::{CellModel, Experiment};
 use cellmech::protocol::{AfmIndentation, Protocol};
 
-/// A coarse cell (base 4/2/2: 448 hex8) refined to 0.15 µm at the site.
+/// A coarse cell (base 8/2/2: 2048 hex8; coarser bases crowd the 16 FAs) refined to
+/// 0.15 µm at the site.
 fn coarse_cell() -> AdherentCell {
     let mut cell = AdherentCell::default();
-    cell.params.mesh.core_divisions = 4;
+    cell.params.mesh.core_divisions = 8;
     cell.params.mesh.shell_layers = 2;
     cell.params.mesh.outer_layers = 2;
     cell.params.refinement.element_size = 0.15;

@@ -6,14 +6,18 @@
 //!   AB `k` is a straight tension-only truss between two FAs at `(∓x_k, y_k, h)` on the dome,
 //!   with `y_k` spread evenly over `bundle_spread` of the dome's half width at that height
 //!   (`y_k = s b_h (2k + 1 − n)/n`, `k = 0..n`), so the apex lies between the two middle
-//!   ABs. Each FA is the dome node nearest its site (the snap distance is reported).
-//! * **MTs** (one per FA) and **IFs** (`per_fa` per FA) are routed as in the suspended cell
+//!   ABs. Each FA's node is the dome node nearest its site, moved onto it (in the reference
+//!   mesh, so refinement keeps it; the distance moved is reported).
+//! * **MTs** (one per FA): the chord from the centrosome (above the nucleus) to the FA,
+//!   bowed sideways in the horizontal plane by `bow × chord × sin(πt)` with `bow` uniform in
+//!   `[bow_min, bow_max]` and a random side (seeded): curved, with varying curvature; every
+//!   point is checked to lie inside the cell and clear of the nucleus.
+//! * **IFs** (`per_fa` per FA) are anchored as in the suspended cell
 //!   (`cell::suspended::cytoskeleton`), in the frame where the ellipsoidal nucleus is the
 //!   unit sphere: `T(x) = (x − c_n) / E_n` (componentwise). Tangency is affine-invariant,
-//!   so an IF tangent to the unit sphere in that frame is tangent to the nucleus; the MT
-//!   clearance is checked in that frame against `clearance_margin / min(E_n)`, which keeps
-//!   the physical clearance at least `clearance_margin`. Every MT point must lie inside the
-//!   cell (checked).
+//!   so an IF tangent to the unit sphere in that frame is tangent to the nucleus. The MT
+//!   clearance is measured in that frame too: times `min(E_n)` it bounds the physical
+//!   clearance from below.
 //! * **Indentation site.** The apex (top node), the receptor (an FA, by default the one
 //!   farthest from the nucleus centre, ties to the larger x) or the dome point above given
 //!   `(x, y)`. The mesh is refined there (see [`LocalRefinement`]).
@@ -24,8 +28,7 @@ use super::geometry::{
     map_reference_mesh, mesh_report, AdherentMeshReport, AdherentMeshResolution, AdherentShape,
 };
 use crate::cell::suspended::cytoskeleton::{
-    anchor_intermediate_filaments, route_microtubules, IfAnchorRule, MicrotubulePath,
-    MicrotubuleRouting,
+    anchor_intermediate_filaments, IfAnchorRule, MicrotubulePath,
 };
 use crate::cell::vec3::{distance, norm, V3};
 
@@ -133,12 +136,12 @@ pub struct AdherentLayoutReport {
     pub base_elements: usize,
     /// Hanging nodes of the local refinement.
     pub hanging_nodes: usize,
-    /// Largest distance from an FA site to its node (µm).
+    /// Largest distance an FA's node was moved along the dome to reach its site (µm).
     pub max_fa_snap: f64,
     /// AB lengths (µm): shortest, longest.
     pub bundle_length_range: (f64, f64),
-    /// Smallest MT clearance from the nucleus, in the unit-nucleus frame (multiply by the
-    /// smallest nucleus semi-axis for a lower bound in µm).
+    /// Smallest MT clearance from the nucleus, in the unit-nucleus frame (times the
+    /// smallest nucleus semi-axis: a lower bound in µm).
     pub min_mt_clearance_scaled: f64,
     /// Largest IF anchor error in the unit-nucleus frame.
     pub max_if_anchor_error_scaled: f64,
@@ -281,7 +284,63 @@ impl AdherentCellParams {
     }
 }
 
-/// Index of the dome node nearest `p` among `nodes`, excluding `taken`.
+/// Turns the reference mesh's radial line of direction `from` (unit) towards `to` (unit):
+/// the surface node moves onto `to`, the nodes below it by a share that falls linearly to
+/// zero at the nucleus surface, so the shear of moving an FA onto its site is spread over
+/// the cytoplasm's layers instead of the outermost one.
+fn turn_radial_line(reference: &mut Mesh, from: V3, to: V3) {
+    let r_ref = super::geometry::REFERENCE_NUCLEUS_RADIUS;
+    for x in reference.nodes.iter_mut() {
+        let rho = norm(*x);
+        if rho <= r_ref + 1e-12 {
+            continue;
+        }
+        let n = [x[0] / rho, x[1] / rho, x[2] / rho];
+        if distance(n, from) > 1e-9 {
+            continue;
+        }
+        let w = ((rho - r_ref) / (1.0 - r_ref)).min(1.0);
+        let d: V3 = std::array::from_fn(|k| from[k] + w * (to[k] - from[k]));
+        *x = crate::cell::vec3::scale(crate::cell::vec3::normalize(d), rho);
+    }
+}
+
+/// Mixed into the seed for the MT bows.
+const MT_STREAM: u64 = 0x4D54_5F41_4448_4552;
+
+/// One MT from the centrosome `c` to the FA at `f`: the chord bowed sideways in the
+/// horizontal plane, `p(t) = c + t (f − c) + bow |f − c| sin(π t) e`, `e` the horizontal unit
+/// vector perpendicular to the chord (x for a vertical chord), sampled at `t = i/m`.
+fn route_microtubule(c: V3, fa_node: usize, f: V3, bow: f64, m: usize) -> MicrotubulePath {
+    let d = crate::cell::vec3::sub(f, c);
+    let h = (d[0] * d[0] + d[1] * d[1]).sqrt();
+    let e = if h > 1e-9 {
+        [-d[1] / h, d[0] / h, 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let chord = norm(d);
+    let points = (0..=m)
+        .map(|i| {
+            let t = i as f64 / m as f64;
+            let s = bow * chord * (std::f64::consts::PI * t).sin();
+            if i == m {
+                f
+            } else {
+                std::array::from_fn(|k| c[k] + t * d[k] + s * e[k])
+            }
+        })
+        .collect();
+    let plane_normal = crate::cell::vec3::normalize(crate::cell::vec3::cross(d, e));
+    MicrotubulePath {
+        fa_node,
+        points,
+        plane_normal,
+        bow,
+    }
+}
+
+/// The node nearest `p` among `nodes`, excluding `taken`, and its distance.
 fn nearest_node(mesh: &Mesh, nodes: &[usize], p: V3, taken: &[usize]) -> Option<(usize, f64)> {
     nodes
         .iter()
@@ -298,27 +357,34 @@ impl AdherentCellGeometry {
     ) -> Result<Self, AdherentLayoutError> {
         params.validate()?;
         let shape = &params.shape;
-        let reference = params
+        let mut reference = params
             .mesh
             .reference_mesh()
             .map_err(|m| fail("mesh", m))?;
-        let base = map_reference_mesh(&reference, shape);
-        let base_elements = base.num_elements();
-        // FAs on the base mesh's dome nodes off the substrate (refinement keeps them).
-        let dome: Vec<usize> = base.node_sets["dome"]
+        // Each FA is the reference surface node nearest to its site's reference direction
+        // `(x/a, y/b, z/c)`, moved onto that direction: the FA lands on its site exactly
+        // and the local refinement (done in the reference space) keeps it.
+        let [a, b, c] = shape.semi_axes;
+        let dome_ref: Vec<usize> = reference.node_sets["surface"]
             .iter()
             .copied()
-            .filter(|&n| base.nodes[n][2] > 1e-9)
+            .filter(|&n| reference.nodes[n][2] > 1e-9)
             .collect();
         let mut fa_nodes = Vec::new();
         let mut max_snap: f64 = 0.0;
         for p in params.fa_sites() {
-            let (n, d) = nearest_node(&base, &dome, p, &fa_nodes).ok_or_else(|| {
-                fail("bundles.count", "more FAs than dome nodes: refine the base mesh")
-            })?;
+            let direction = [p[0] / a, p[1] / b, p[2] / c];
+            let (n, d) = nearest_node(&reference, &dome_ref, direction, &fa_nodes)
+                .ok_or_else(|| {
+                    fail("bundles.count", "more FAs than dome nodes: refine the base mesh")
+                })?;
+            max_snap = max_snap.max(distance(shape.map(reference.nodes[n], true), p));
+            let from = reference.nodes[n];
+            turn_radial_line(&mut reference, from, direction);
             fa_nodes.push(n);
-            max_snap = max_snap.max(d);
         }
+        let base = map_reference_mesh(&reference, shape);
+        let base_elements = base.num_elements();
         let receptor = match params.receptor {
             Some(k) if k < fa_nodes.len() => k,
             Some(k) => {
@@ -397,8 +463,9 @@ impl AdherentCellGeometry {
             return Err(fail(
                 "mesh",
                 format!(
-                    "the mapped mesh has an inverted element (min scaled Jacobian {:.3}); try \
-                     other mesh divisions",
+                    "the mapped mesh has an inverted element (min scaled Jacobian {:.3}): FAs \
+                     closer than the mesh spacing crowd its elements; raise mesh.core_divisions \
+                     (8 for the default 8 bundles) or lower bundles.count",
                     mesh_quality.min_scaled_jacobian
                 ),
             ));
@@ -427,7 +494,7 @@ impl AdherentCellGeometry {
             .iter()
             .map(|&[a, b]| distance(mesh.nodes[a], mesh.nodes[b]))
             .collect();
-        // MTs in the unit-nucleus frame.
+        // MTs: the chord from the centrosome to the FA bowed sideways (horizontally).
         let centrosome = params.centrosome();
         if shape.level(centrosome) >= 1.0 || centrosome[2] <= 0.0 {
             return Err(fail(
@@ -435,30 +502,14 @@ impl AdherentCellGeometry {
                 format!("the centrosome at {centrosome:?} µm lies outside the cell"),
             ));
         }
-        let min_axis = shape.nucleus_semi_axes.iter().cloned().fold(f64::INFINITY, f64::min);
-        let routing = MicrotubuleRouting {
-            centrosome: params.to_unit_nucleus(centrosome),
-            cell_radius: 0.0,
-            nucleus_radius: 1.0,
-            elements: params.mt_elements,
-            bow_min: params.mt_bow_min,
-            bow_max: params.mt_bow_max,
-            clearance_margin: params.mt_clearance_margin / min_axis,
-            seed: params.seed,
-        };
-        let fa_scaled: Vec<V3> = fa_nodes
-            .iter()
-            .map(|&n| params.to_unit_nucleus(mesh.nodes[n]))
-            .collect();
-        let (mut microtubules, min_clearance) = route_microtubules(&routing, &fa_nodes, &fa_scaled)
-            .map_err(|e| fail("microtubules", e.to_string()))?;
-        for (k, mt) in microtubules.iter_mut().enumerate() {
-            for p in mt.points.iter_mut() {
-                *p = params.from_unit_nucleus(*p);
-            }
-            let last = mt.points.len() - 1;
-            mt.points[last] = mesh.nodes[mt.fa_node];
-            if let Some(p) = mt.points[1..last]
+        let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ MT_STREAM);
+        let mut microtubules = Vec::with_capacity(fa_nodes.len());
+        let mut min_clearance = f64::INFINITY;
+        for (k, &fa) in fa_nodes.iter().enumerate() {
+            let bow = rng.uniform(params.mt_bow_min, params.mt_bow_max.max(params.mt_bow_min));
+            let side = if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 };
+            let mt = route_microtubule(centrosome, fa, mesh.nodes[fa], side * bow, params.mt_elements);
+            if let Some(p) = mt.points[1..mt.points.len() - 1]
                 .iter()
                 .find(|p| shape.level(**p) >= 1.0 || p[2] <= 0.0)
             {
@@ -470,11 +521,22 @@ impl AdherentCellGeometry {
                     ),
                 ));
             }
-            // The plane normal of the section was in the scaled frame; a unit vector
-            // perpendicular enough for the beam's reference direction after the map.
-            let n = mt.plane_normal;
-            let e = shape.nucleus_semi_axes;
-            mt.plane_normal = crate::cell::vec3::normalize([n[0] / e[0], n[1] / e[1], n[2] / e[2]]);
+            let scaled: Vec<V3> = mt.points.iter().map(|&p| params.to_unit_nucleus(p)).collect();
+            let clearance = crate::cell::suspended::cytoskeleton::polyline_distance_to_origin(&scaled) - 1.0;
+            let min_axis = shape.nucleus_semi_axes.iter().cloned().fold(f64::INFINITY, f64::min);
+            if !(clearance * min_axis >= params.mt_clearance_margin) {
+                return Err(fail(
+                    "microtubules",
+                    format!(
+                        "MT {k} passes within {:.3} µm of the nucleus (at least {} µm wanted); \
+                         raise microtubules.centrosome_gap or lower the bow",
+                        clearance * min_axis,
+                        params.mt_clearance_margin
+                    ),
+                ));
+            }
+            min_clearance = min_clearance.min(clearance);
+            microtubules.push(mt);
         }
         // IFs in the unit-nucleus frame.
         let inner = mesh.node_sets["nucleus_surface"].clone();
@@ -548,3 +610,4 @@ impl AdherentCellGeometry {
         chains
     }
 }
+
