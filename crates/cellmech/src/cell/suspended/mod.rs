@@ -553,6 +553,7 @@ impl SuspendedCell {
                     axis: 0,
                 }],
                 embedded: self.coupling.embeddings(),
+                hanging: Vec::new(),
             },
             description,
             surface_set: "surface".into(),
