@@ -218,7 +218,7 @@ impl AdherentMeshResolution {
 }
 
 /// Maps every node of a reference mesh into the cell (nodes of set `surface` onto the cell
-/// surface) and renames the sets: `surface` becomes the whole outer boundary, `bottom` its
+/// surface, of `inner_surface` onto the nucleus surface) and renames the sets: `surface` becomes the whole outer boundary, `bottom` its
 /// nodes on the substrate (rim included), `dome` the others plus the rim, `apex` the top
 /// node, `nucleus_surface` the nucleus surface.
 pub fn map_reference_mesh(reference: &Mesh, shape: &AdherentShape) -> Mesh {
@@ -227,7 +227,15 @@ pub fn map_reference_mesh(reference: &Mesh, shape: &AdherentShape) -> Mesh {
     for &n in mesh.node_sets.get("surface").into_iter().flatten() {
         on_surface[n] = true;
     }
+    let mut on_nucleus = vec![false; mesh.num_nodes()];
+    for &n in mesh.node_sets.get("inner_surface").into_iter().flatten() {
+        on_nucleus[n] = true;
+    }
     for (n, x) in mesh.nodes.iter_mut().enumerate() {
+        if on_nucleus[n] {
+            // On the nucleus surface exactly (nodes a refinement added on a facet too).
+            *x = crate::cell::vec3::scale(*x, REFERENCE_NUCLEUS_RADIUS / norm(*x));
+        }
         *x = shape.map(*x, on_surface[n]);
     }
     let surface = mesh.node_sets.get("surface").cloned().unwrap_or_default();

@@ -275,13 +275,6 @@ impl AdherentCellParams {
         let c = self.shape.nucleus_centre();
         std::array::from_fn(|k| (x[k] - c[k]) / e[k])
     }
-
-    /// Back from the unit-nucleus frame.
-    fn from_unit_nucleus(&self, x: V3) -> V3 {
-        let e = self.shape.nucleus_semi_axes;
-        let c = self.shape.nucleus_centre();
-        std::array::from_fn(|k| c[k] + x[k] * e[k])
-    }
 }
 
 /// Turns the reference mesh's radial line of direction `from` (unit) towards `to` (unit):
@@ -374,7 +367,7 @@ impl AdherentCellGeometry {
         let mut max_snap: f64 = 0.0;
         for p in params.fa_sites() {
             let direction = [p[0] / a, p[1] / b, p[2] / c];
-            let (n, d) = nearest_node(&reference, &dome_ref, direction, &fa_nodes)
+            let (n, _) = nearest_node(&reference, &dome_ref, direction, &fa_nodes)
                 .ok_or_else(|| {
                     fail("bundles.count", "more FAs than dome nodes: refine the base mesh")
                 })?;
