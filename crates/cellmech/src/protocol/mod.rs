@@ -4,6 +4,7 @@
 //! the reference step, the loading steps), from which [`results`] derives the test's own
 //! curve. Nothing here parses files.
 
+pub mod apparent_modulus;
 pub mod grip;
 pub mod micropipette_tension;
 pub mod microplate_compression;
