@@ -16,7 +16,9 @@
 //! that a least-squares fit of the modulus uses. Negative depths (the tip above the surface)
 //! give no contact: a = 0, F = 0.
 //!
-//! Units: µm, kPa, nN (kPa·µm² = nN); angles in radians.
+//! Units: µm, kPa, nN (kPa·µm² = nN); angles in radians. Besides the tests, the
+//! apparent-modulus fit of `cellmech::protocol::apparent_modulus` uses these formulas, so
+//! the fit and its verification share one definition.
 
 use std::f64::consts::FRAC_PI_2;
 
