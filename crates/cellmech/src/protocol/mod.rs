@@ -5,6 +5,7 @@
 //! curve. Nothing here parses files.
 
 pub mod afm_indentation;
+pub mod apparent_modulus;
 pub mod grip;
 pub mod micropipette_tension;
 pub mod microplate_compression;
