@@ -169,6 +169,16 @@ pub fn refine_hex8(
     mesh: &Mesh,
     wanted_level: impl Fn(&[[f64; 3]; 8]) -> u8,
 ) -> Result<RefinedMesh, RefineError> {
+    refine_hex8_by_level(mesh, |corners, _| wanted_level(corners))
+}
+
+/// [`refine_hex8`] with the cell's current level passed to `wanted_level` as well (0 for an
+/// input element, +1 per split): a size criterion can then return the absolute level it
+/// wants, `level + ⌈log2(size / target)⌉`, from the cell it is asked about.
+pub fn refine_hex8_by_level(
+    mesh: &Mesh,
+    wanted_level: impl Fn(&[[f64; 3]; 8], u8) -> u8,
+) -> Result<RefinedMesh, RefineError> {
     mesh.validate()?;
     if let Some(b) = mesh.blocks.iter().find(|b| b.kind != ElementKind::Hex8) {
         return Err(RefineError::NotHex8 {
@@ -208,7 +218,7 @@ pub fn refine_hex8(
             while let Some(cell) = stack.pop() {
                 let corners = refiner.cells[cell].corners;
                 let level = refiner.cells[cell].level;
-                let wanted = wanted_level(&corners.map(|n| refiner.nodes[n]));
+                let wanted = wanted_level(&corners.map(|n| refiner.nodes[n]), level);
                 if wanted > MAX_REFINEMENT_LEVEL {
                     return Err(RefineError::LevelTooHigh {
                         block: block.name.clone(),

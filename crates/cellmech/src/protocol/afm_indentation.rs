@@ -7,6 +7,7 @@
 use cellmech_fem::contact::{ContactKind, ToolShape};
 use cellmech_fem::solve::StepControl;
 
+use super::apparent_modulus::FitSettings;
 use super::{ProtocolError, ProtocolPlan, ToolHandle};
 use crate::cell::adherent::IndentationSite;
 use crate::cell::BuiltCell;
@@ -14,6 +15,7 @@ use crate::model::tools::{default_penalty, default_tolerance, ForceTarget, ToolM
 use crate::model::StepSpec;
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Force, Length};
+use cellmech_fem::verify::contact::Indenter;
 
 /// The parameters of `kind = "afm-indentation"`.
 pub const AFM_INDENTATION: ParamTable = ParamTable {
@@ -84,7 +86,46 @@ pub const AFM_INDENTATION: ParamTable = ParamTable {
             doc: "start height of the tip above the undeformed site",
             source: "choice",
         },
-        super::MAX_INCREMENT,
+        ParamDef {
+            key: "max_increment",
+            kind: K::Number,
+            default: D::Number(0.2),
+            bounds: Bounds::new(0.0, false, 1.0, true),
+            doc: "largest increment of the indentation steps, fraction of the step (0.2 of a 0.5 µm step: a curve point every 100 nm)",
+            source: "choice",
+        },
+        ParamDef {
+            key: "fit_range",
+            kind: K::QuantityList(Length),
+            default: D::List(&[0.0, 1.0]),
+            bounds: Bounds::NON_NEGATIVE,
+            doc: "depths [from, to] of the apparent-modulus fit (Hertz/Sneddon)",
+            source: "choice (issue: \"a Hertz fit over a chosen depth range\")",
+        },
+        ParamDef {
+            key: "fit_model",
+            kind: K::Choice(&["tip", "paraboloid", "sphere", "cone"]),
+            default: D::Word("tip"),
+            bounds: Bounds::ANY,
+            doc: "contact model of the fit: the tip's own shape, a paraboloid (Hertz), a sphere (Sneddon) of the tip radius, or a cone (Sneddon) of half-angle `fit_cone_half_angle_deg`",
+            source: "choice",
+        },
+        ParamDef {
+            key: "fit_cone_half_angle_deg",
+            kind: K::Number,
+            default: D::Number(20.0),
+            bounds: Bounds::new(0.0, false, 90.0, false),
+            doc: "half-angle of the cone model (degrees)",
+            source: "choice (a common pyramidal tip)",
+        },
+        ParamDef {
+            key: "fit_poisson_ratio",
+            kind: K::Number,
+            default: D::Number(0.5),
+            bounds: Bounds::new(-1.0, false, 0.5, true),
+            doc: "Poisson's ratio assumed by the fit (AFM users assume incompressible)",
+            source: "choice",
+        },
     ],
 };
 
@@ -117,6 +158,8 @@ pub struct AfmIndentation {
     pub approach_gap: f64,
     /// Largest increment of the loading steps.
     pub max_increment: f64,
+    /// How the apparent modulus is fitted to the curve.
+    pub fit: FitSettings,
 }
 
 impl Default for AfmIndentation {
@@ -138,7 +181,11 @@ impl AfmIndentation {
         let site = match v.word("site") {
             "receptor" => IndentationSite::Receptor,
             "point" => {
-                let p = if v.given("point") { v.list("point") } else { &[] };
+                let p = if v.given("point") {
+                    v.list("point")
+                } else {
+                    &[]
+                };
                 IndentationSite::Point {
                     x: p.first().copied().unwrap_or(f64::NAN),
                     y: p.get(1).copied().unwrap_or(f64::NAN),
@@ -158,6 +205,26 @@ impl AfmIndentation {
             contact_force: v.number("contact_force"),
             approach_gap: v.number("approach_gap"),
             max_increment: v.number("max_increment"),
+            fit: {
+                let r = v.number("tip_radius");
+                let tip = match (v.word("fit_model"), v.word("tip")) {
+                    ("sphere", _) | ("tip", "sphere") => Indenter::Sphere { radius: r },
+                    ("cone", _) => Indenter::Cone {
+                        half_angle: v.number("fit_cone_half_angle_deg").to_radians(),
+                    },
+                    _ => Indenter::Paraboloid { radius: r },
+                };
+                let range = v.list("fit_range");
+                let mut fit = FitSettings::new(
+                    tip,
+                    [
+                        range.first().copied().unwrap_or(f64::NAN),
+                        range.get(1).copied().unwrap_or(f64::NAN),
+                    ],
+                );
+                fit.poisson_ratio = v.number("fit_poisson_ratio");
+                fit
+            },
         }
     }
 
@@ -182,8 +249,20 @@ impl AfmIndentation {
                 });
             }
         }
+        let [lo, hi] = self.fit.depth_range_um;
+        if !(lo >= 0.0 && hi > lo) {
+            return Err(ProtocolError {
+                key: "fit_range",
+                message: format!(
+                    "expected two depths [from, to] with 0 ≤ from < to, e.g. [\"0 um\", \"1 um\"]; \
+                     found [{lo}, {hi}] µm"
+                ),
+            });
+        }
         let list = &self.depths;
-        if list.is_empty() || list.iter().any(|d| !(*d > 0.0)) || list.windows(2).any(|w| w[1] <= w[0])
+        if list.is_empty()
+            || list.iter().any(|d| !(*d > 0.0))
+            || list.windows(2).any(|w| w[1] <= w[0])
         {
             return Err(ProtocolError {
                 key: "depths",
@@ -306,7 +385,11 @@ impl AfmIndentation {
         let mut previous = 0.0;
         for &d in &self.depths {
             depths.push((steps.len(), d));
-            steps.push(step(format!("indent-{}nm", (1000.0 * d).round()), -(d - previous), None));
+            steps.push(step(
+                format!("indent-{}nm", (1000.0 * d).round()),
+                -(d - previous),
+                None,
+            ));
             previous = d;
         }
         let retract_step = self.retract.then(|| {
@@ -322,6 +405,7 @@ impl AfmIndentation {
             site_point: site,
             tip_shape: self.tip,
             tip_radius: r,
+            fit: self.fit,
         })
     }
 }

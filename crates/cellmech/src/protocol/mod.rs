@@ -263,6 +263,8 @@ pub enum ProtocolPlan {
         tip_shape: afm_indentation::TipShape,
         /// Tip radius (µm).
         tip_radius: f64,
+        /// The apparent-modulus fit of the curve.
+        fit: apparent_modulus::FitSettings,
     },
 }
 

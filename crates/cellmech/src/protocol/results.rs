@@ -60,6 +60,10 @@ pub struct ProtocolResults {
     pub at_deformations: Vec<(f64, TestPoint)>,
     /// The last point (end of the test or the last converged increment).
     pub last: Option<TestPoint>,
+    /// AFM: the apparent Young's modulus fitted to the loading curve (`None` with fewer than
+    /// three points in the fit range), or why the fit failed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub apparent_modulus: Option<Result<super::apparent_modulus::ApparentModulusFit, String>>,
     /// Files written.
     pub files: Vec<String>,
 }
@@ -127,7 +131,8 @@ pub fn write_protocol_results(
     let strain = column("nucleus_max_principal_log_strain")?;
     let strain_from_reference = column("nucleus_max_principal_log_strain_from_reference")?;
     let aspect = column("nucleus_aspect_ratio")?;
-    let support = column("support_reaction_max_nN")?;
+    // Cells without minimal supports (the clamped adherent cell) have no such column.
+    let support = writer.column("support_reaction_max_nN").unwrap_or_default();
     let d = cell.cell_diameter;
     let area = std::f64::consts::PI * d * d / 4.0;
     let last_row_of = |s: usize| step.iter().rposition(|&k| k as usize == s);
@@ -149,6 +154,7 @@ pub fn write_protocol_results(
         curve: Vec::new(),
         at_deformations: Vec::new(),
         last: None,
+        apparent_modulus: None,
         files: Vec::new(),
     };
     let Some(reference) = last_row_of(reference_step) else {
@@ -173,10 +179,12 @@ pub fn write_protocol_results(
             nucleus_aspect_ratio: aspect[r],
         }
     };
+    let mut curve_rows = vec![reference];
     results.curve.push(point(reference));
     for r in reference + 1..step.len() {
         if loading.contains(&(step[r] as usize)) {
             results.curve.push(point(r));
+            curve_rows.push(r);
         }
     }
     let targets = match plan {
@@ -289,6 +297,36 @@ pub fn write_protocol_results(
                 band("2.6 + 0.5 kPa", 3.1),
             ],
         ));
+    }
+    if let ProtocolPlan::AfmIndentation {
+        fit, depths, site, ..
+    } = plan
+    {
+        // The loading part of the curve (the retract step is not fitted).
+        let last_depth_step = depths.last().map_or(0, |(s, _)| *s);
+        let loading: Vec<&TestPoint> = results
+            .curve
+            .iter()
+            .zip(&curve_rows)
+            .filter(|(_, r)| step[**r] as usize <= last_depth_step)
+            .map(|(p, _)| p)
+            .collect();
+        let depth: Vec<f64> = loading.iter().map(|p| p.displacement_um).collect();
+        let force: Vec<f64> = loading.iter().map(|p| p.force_nn).collect();
+        let result = super::apparent_modulus::fit_apparent_modulus(&depth, &force, fit);
+        if let Ok(f) = &result {
+            let file = format!("{stem}-fit.{plot_extension}");
+            super::apparent_modulus::write_fit_plot(
+                &dir.join(&file),
+                &format!("Adherent cell at the {site}: apparent modulus"),
+                &depth,
+                &force,
+                f,
+            )
+            .map_err(|e| e.to_string())?;
+            results.files.push(file);
+        }
+        results.apparent_modulus = Some(result.map_err(|e| e.to_string()));
     }
     for (file, y_label, series) in plots {
         let spec = PlotSpec {

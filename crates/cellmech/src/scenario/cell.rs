@@ -14,10 +14,10 @@ use super::context::Ctx;
 use super::ScenarioError;
 use crate::cell::adherent::{params::ADHERENT_CELL, AdherentCell};
 use crate::cell::suspended::{params::SUSPENDED_CELL, SuspendedCell};
-use crate::protocol::afm_indentation::AFM_INDENTATION;
-use crate::protocol::AfmIndentation;
 use crate::cell::BuiltCell;
 use crate::param::{read_section, ParamError};
+use crate::protocol::afm_indentation::AFM_INDENTATION;
+use crate::protocol::AfmIndentation;
 use crate::protocol::{Protocol, ProtocolPlan, KINDS, TABLES};
 
 /// The cell models `[cell] model = ...` accepts.

@@ -344,7 +344,6 @@ mod tests {
         };
         let mesh = map_reference_mesh(&res.reference_mesh().unwrap(), &shape());
         let report = mesh_report(&mesh, &shape());
-        eprintln!("{report:?}");
         assert!(
             report.min_scaled_jacobian > 0.09,
             "min scaled Jacobian {}",
@@ -381,7 +380,10 @@ mod tests {
             })
             .sum();
         let exact = 4.0 / 3.0 * std::f64::consts::PI * 2.5 * 2.5 * 1.5;
-        assert!((v / exact - 1.0).abs() < 0.03, "nucleus volume {v} vs {exact}");
+        assert!(
+            (v / exact - 1.0).abs() < 0.03,
+            "nucleus volume {v} vs {exact}"
+        );
     }
 
     #[test]

@@ -66,25 +66,21 @@ pub struct LocalRefinement {
 }
 
 impl LocalRefinement {
-    /// Levels of splitting wanted for an element with physical corners `x`, for a site.
-    pub fn wanted_level(&self, x: &[V3; 8], site: V3) -> u8 {
+    /// Further levels of splitting wanted for an element with physical corners `x` (its
+    /// longest edge over the wanted size, rounded up in powers of two), for a site.
+    pub fn extra_levels(&self, x: &[V3; 8], site: V3) -> u8 {
         let longest = super::geometry::HEX_EDGES
             .iter()
             .map(|&(i, j)| distance(x[i], x[j]))
             .fold(0.0, f64::max);
         let centroid: V3 = std::array::from_fn(|k| x.iter().map(|p| p[k]).sum::<f64>() / 8.0);
-        let radius = x
-            .iter()
-            .map(|p| distance(*p, centroid))
-            .fold(0.0, f64::max);
+        let radius = x.iter().map(|p| distance(*p, centroid)).fold(0.0, f64::max);
         let d = (distance(centroid, site) - radius).max(0.0);
-        let target = self
-            .element_size
-            .max(self.grading * (d - self.fine_radius));
+        let target = self.element_size.max(self.grading * (d - self.fine_radius));
         if longest <= target {
             return 0;
         }
-        ((longest / target).log2().ceil() as u8).min(self.max_levels)
+        (longest / target).log2().ceil().min(16.0) as u8
     }
 }
 
@@ -105,6 +101,9 @@ pub struct AdherentCellParams {
     pub bundle_spread: f64,
     /// The receptor FA (index into the FAs; `None`: the one farthest from the nucleus).
     pub receptor: Option<usize>,
+    /// Radius of an FA's plaque: the dome nodes within it move with the FA node (0: the FA
+    /// is one node).
+    pub fa_radius: f64,
     /// Beam elements per MT.
     pub mt_elements: usize,
     /// Smallest MT bow (fraction of the chord).
@@ -136,6 +135,8 @@ pub struct AdherentLayoutReport {
     pub base_elements: usize,
     /// Hanging nodes of the local refinement.
     pub hanging_nodes: usize,
+    /// Dome nodes tied to an FA node by its plaque (`fa_radius`).
+    pub fa_plaque_nodes: usize,
     /// Largest distance an FA's node was moved along the dome to reach its site (µm).
     pub max_fa_snap: f64,
     /// AB lengths (µm): shortest, longest.
@@ -172,7 +173,8 @@ pub struct AdherentCellGeometry {
     /// Hex8 mesh (blocks `nucleus`, `cytoplasm`); node sets `surface`, `dome`, `bottom`,
     /// `apex`, `nucleus_surface`, `focal_adhesions`, `fa_<k>`, `if_anchors`.
     pub mesh: Mesh,
-    /// Ties of the hanging nodes of the local refinement.
+    /// Ties of the hanging nodes of the local refinement and of the FA plaques (a plaque
+    /// node follows its FA node with weight 1).
     pub hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
     /// Outer boundary faces (outward), dome and base.
     pub boundary_faces: Vec<[usize; 4]>,
@@ -198,9 +200,11 @@ impl AdherentCellParams {
         self.shape.validate().map_err(|m| fail("shape", m))?;
         let [_, _, c] = self.shape.semi_axes;
         if self.bundles == 0 {
-            return Err(fail("bundles.count", "expected at least 1 actin bundle; found 0"));
+            return Err(fail(
+                "bundles.count",
+                "expected at least 1 actin bundle; found 0",
+            ));
         }
-        let top = self.shape.nucleus_height + self.shape.nucleus_semi_axes[2];
         if !(self.bundle_height > 0.0 && self.bundle_height < c) {
             return Err(fail(
                 "bundles.height",
@@ -210,9 +214,6 @@ impl AdherentCellParams {
                     self.bundle_height
                 ),
             ));
-        }
-        if self.bundle_height <= top && self.bundles > 0 {
-            // ABs below the nucleus top can cross it; checked per AB in the build.
         }
         if !(self.bundle_spread > 0.0 && self.bundle_spread < 1.0) {
             return Err(fail(
@@ -264,7 +265,8 @@ impl AdherentCellParams {
     pub fn centrosome(&self) -> V3 {
         let d = crate::cell::vec3::normalize(self.centrosome_direction);
         let e = self.shape.nucleus_semi_axes;
-        let s = 1.0 / ((d[0] / e[0]).powi(2) + (d[1] / e[1]).powi(2) + (d[2] / e[2]).powi(2)).sqrt();
+        let s =
+            1.0 / ((d[0] / e[0]).powi(2) + (d[1] / e[1]).powi(2) + (d[2] / e[2]).powi(2)).sqrt();
         let c = self.shape.nucleus_centre();
         std::array::from_fn(|k| c[k] + d[k] * (s + self.centrosome_gap))
     }
@@ -296,6 +298,61 @@ fn turn_radial_line(reference: &mut Mesh, from: V3, to: V3) {
         let d: V3 = std::array::from_fn(|k| from[k] + w * (to[k] - from[k]));
         *x = crate::cell::vec3::scale(crate::cell::vec3::normalize(d), rho);
     }
+}
+
+/// Ties every dome node within `radius` of an FA node (the nearest FA when several) to it,
+/// so that the FA is a rigid plaque rather than one node: a single node cannot carry an
+/// AB's pull where the mesh is refined (a point force on ever smaller elements; the
+/// receptor's prestress stalls at 1 % of the ramp). Hanging-node ties whose masters fall in
+/// a plaque are rewritten onto the FA node (no chains); hanging nodes keep their own ties.
+/// Returns the ties and the number of plaque nodes.
+fn tie_fa_plaques(
+    mesh: &Mesh,
+    hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    fa_nodes: &[usize],
+    radius: f64,
+) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
+    use cellmech_fem::mesh::refine::HangingNode;
+    use std::collections::{BTreeMap, HashSet};
+    if radius <= 0.0 {
+        return (hanging, 0);
+    }
+    let tied: HashSet<usize> = hanging.iter().map(|h| h.node).collect();
+    let fas: HashSet<usize> = fa_nodes.iter().copied().collect();
+    let mut plaque: BTreeMap<usize, usize> = BTreeMap::new();
+    for &n in &mesh.node_sets["dome"] {
+        if fas.contains(&n) || tied.contains(&n) || mesh.nodes[n][2] <= 1e-9 {
+            continue;
+        }
+        let nearest = fa_nodes
+            .iter()
+            .map(|&f| (distance(mesh.nodes[n], mesh.nodes[f]), f))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((d, f)) = nearest {
+            if d <= radius {
+                plaque.insert(n, f);
+            }
+        }
+    }
+    let mut ties: Vec<HangingNode> = hanging
+        .into_iter()
+        .map(|h| {
+            let mut masters: BTreeMap<usize, f64> = BTreeMap::new();
+            for (m, w) in h.masters {
+                *masters.entry(*plaque.get(&m).unwrap_or(&m)).or_insert(0.0) += w;
+            }
+            HangingNode {
+                node: h.node,
+                masters: masters.into_iter().collect(),
+            }
+        })
+        .collect();
+    let count = plaque.len();
+    ties.extend(plaque.into_iter().map(|(node, f)| HangingNode {
+        node,
+        masters: vec![(f, 1.0)],
+    }));
+    (ties, count)
 }
 
 /// Mixed into the seed for the MT bows.
@@ -350,10 +407,7 @@ impl AdherentCellGeometry {
     ) -> Result<Self, AdherentLayoutError> {
         params.validate()?;
         let shape = &params.shape;
-        let mut reference = params
-            .mesh
-            .reference_mesh()
-            .map_err(|m| fail("mesh", m))?;
+        let mut reference = params.mesh.reference_mesh().map_err(|m| fail("mesh", m))?;
         // Each FA is the reference surface node nearest to its site's reference direction
         // `(x/a, y/b, z/c)`, moved onto that direction: the FA lands on its site exactly
         // and the local refinement (done in the reference space) keeps it.
@@ -367,9 +421,12 @@ impl AdherentCellGeometry {
         let mut max_snap: f64 = 0.0;
         for p in params.fa_sites() {
             let direction = [p[0] / a, p[1] / b, p[2] / c];
-            let (n, _) = nearest_node(&reference, &dome_ref, direction, &fa_nodes)
-                .ok_or_else(|| {
-                    fail("bundles.count", "more FAs than dome nodes: refine the base mesh")
+            let (n, _) =
+                nearest_node(&reference, &dome_ref, direction, &fa_nodes).ok_or_else(|| {
+                    fail(
+                        "bundles.count",
+                        "more FAs than dome nodes: refine the base mesh",
+                    )
                 })?;
             max_snap = max_snap.max(distance(shape.map(reference.nodes[n], true), p));
             let from = reference.nodes[n];
@@ -435,10 +492,13 @@ impl AdherentCellGeometry {
         let (mut mesh, hanging, boundary_faces) = match site_point {
             Some(s) => {
                 let refinement = params.refinement;
-                let refined = cellmech_fem::mesh::refine::refine_hex8(&reference, |corners| {
-                    let x = corners.map(|p| shape.map(p, false));
-                    refinement.wanted_level(&x, s)
-                })
+                let refined = cellmech_fem::mesh::refine::refine_hex8_by_level(
+                    &reference,
+                    |corners, level| {
+                        let x = corners.map(|p| shape.map(p, false));
+                        (level + refinement.extra_levels(&x, s)).min(refinement.max_levels)
+                    },
+                )
                 .map_err(|e| fail("refinement", e.to_string()))?;
                 let mut mesh = map_reference_mesh(&refined.mesh, shape);
                 // The base mesh's nodes keep their indices and positions.
@@ -463,6 +523,7 @@ impl AdherentCellGeometry {
                 ),
             ));
         }
+        let (hanging, plaque_nodes) = tie_fa_plaques(&mesh, hanging, &fa_nodes, params.fa_radius);
         // ABs.
         let bundles: Vec<[usize; 2]> = (0..params.bundles)
             .map(|k| [fa_nodes[2 * k], fa_nodes[2 * k + 1]])
@@ -501,7 +562,13 @@ impl AdherentCellGeometry {
         for (k, &fa) in fa_nodes.iter().enumerate() {
             let bow = rng.uniform(params.mt_bow_min, params.mt_bow_max.max(params.mt_bow_min));
             let side = if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 };
-            let mt = route_microtubule(centrosome, fa, mesh.nodes[fa], side * bow, params.mt_elements);
+            let mt = route_microtubule(
+                centrosome,
+                fa,
+                mesh.nodes[fa],
+                side * bow,
+                params.mt_elements,
+            );
             if let Some(p) = mt.points[1..mt.points.len() - 1]
                 .iter()
                 .find(|p| shape.level(**p) >= 1.0 || p[2] <= 0.0)
@@ -514,9 +581,18 @@ impl AdherentCellGeometry {
                     ),
                 ));
             }
-            let scaled: Vec<V3> = mt.points.iter().map(|&p| params.to_unit_nucleus(p)).collect();
-            let clearance = crate::cell::suspended::cytoskeleton::polyline_distance_to_origin(&scaled) - 1.0;
-            let min_axis = shape.nucleus_semi_axes.iter().cloned().fold(f64::INFINITY, f64::min);
+            let scaled: Vec<V3> = mt
+                .points
+                .iter()
+                .map(|&p| params.to_unit_nucleus(p))
+                .collect();
+            let clearance =
+                crate::cell::suspended::cytoskeleton::polyline_distance_to_origin(&scaled) - 1.0;
+            let min_axis = shape
+                .nucleus_semi_axes
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
             if !(clearance * min_axis >= params.mt_clearance_margin) {
                 return Err(fail(
                     "microtubules",
@@ -534,7 +610,11 @@ impl AdherentCellGeometry {
         // IFs in the unit-nucleus frame.
         let inner = mesh.node_sets["nucleus_surface"].clone();
         let scaled = Mesh {
-            nodes: mesh.nodes.iter().map(|&x| params.to_unit_nucleus(x)).collect(),
+            nodes: mesh
+                .nodes
+                .iter()
+                .map(|&x| params.to_unit_nucleus(x))
+                .collect(),
             ..Mesh::default()
         };
         let ifs = anchor_intermediate_filaments(
@@ -556,7 +636,8 @@ impl AdherentCellGeometry {
         let report = AdherentLayoutReport {
             mesh: mesh_quality,
             base_elements,
-            hanging_nodes: hanging.len(),
+            hanging_nodes: hanging.len() - plaque_nodes,
+            fa_plaque_nodes: plaque_nodes,
             max_fa_snap: max_snap,
             bundle_length_range: lengths
                 .iter()
@@ -603,4 +684,3 @@ impl AdherentCellGeometry {
         chains
     }
 }
-

@@ -180,7 +180,11 @@ impl AdherentCell {
         let on = &self.components;
         let mut materials = Vec::new();
         for (name, g, nu) in [
-            ("cytoplasm", m.cytoplasm_shear_modulus, m.cytoplasm_poisson_ratio),
+            (
+                "cytoplasm",
+                m.cytoplasm_shear_modulus,
+                m.cytoplasm_poisson_ratio,
+            ),
             ("nucleus", m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
         ] {
             materials.push(MaterialAssignment {

@@ -12,7 +12,10 @@ use super::geometry::{AdherentMeshResolution, AdherentShape};
 use super::layout::{AdherentCellParams, LocalRefinement};
 use super::AdherentCellMaterials;
 use crate::cell::suspended::params as shared;
-use crate::cell::suspended::{ActinMaterial, IfAnchorRule, IntermediateMaterial, MicrotubuleMaterial};
+use crate::cell::suspended::MAX_MT_BOW;
+use crate::cell::suspended::{
+    ActinMaterial, IfAnchorRule, IntermediateMaterial, MicrotubuleMaterial,
+};
 
 const fn p(
     key: &'static str,
@@ -50,11 +53,11 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         p("seed", K::Seed, D::Seed(2024), ANY, "seed of every random choice (MT bows)", CHOICE),
         p("mesh.core_divisions", K::Count, D::Count(8), MESH_COUNT, "elements along the reference cube's edge (even); the base mesh has core³ + 6 core² (shell + outer) hex8", "choice ([adherent cell](adherent-cell.md#mesh))"),
         p("mesh.shell_layers", K::Count, D::Count(3), MESH_COUNT, "radial layers inside the nucleus surface", CHOICE),
-        p("mesh.outer_layers", K::Count, D::Count(4), MESH_COUNT, "radial layers of cytoplasm from the nucleus to the cell surface", CHOICE),
-        p("refinement.element_size", K::Quantity(Length), D::Number(0.1), POS, "element size wanted at the indentation site (the 200 nm tip's contact radius is 0.45 µm at 0.5 µm depth)", "choice (issue: several element faces across the contact)"),
-        p("refinement.fine_radius", K::Quantity(Length), D::Number(1.0), NONNEG, "radius around the site kept at the finest size (the contact radius at 2.5 µm is about 1 µm)", CHOICE),
-        p("refinement.grading", K::Number, D::Number(0.5), POS, "growth of the element size with distance beyond the fine radius (size ≤ grading × distance)", CHOICE),
-        p("refinement.max_levels", K::Count, D::Count(5), Bounds::new(0.0, true, 6.0, true), "most octree levels of splitting at the site", CHOICE),
+        p("mesh.outer_layers", K::Count, D::Count(3), MESH_COUNT, "radial layers of cytoplasm from the nucleus to the cell surface", CHOICE),
+        p("refinement.element_size", K::Quantity(Length), D::Number(0.15), POS, "largest element edge wanted at the indentation site (the 200 nm tip's contact radius is 0.45 µm at 0.5 µm depth: 3 faces; the octree halves sizes, so 0.15 and 0.2 give the same 10 712 hex8, 0.1 gives 27 904)", "choice (issue: several element faces across the contact)"),
+        p("refinement.fine_radius", K::Quantity(Length), D::Number(0.6), NONNEG, "radius around the site kept at the finest size", CHOICE),
+        p("refinement.grading", K::Number, D::Number(1.0), POS, "growth of the element size with distance beyond the fine radius (size ≤ grading × distance)", CHOICE),
+        p("refinement.max_levels", K::Count, D::Count(6), Bounds::new(0.0, true, 6.0, true), "most octree levels of splitting at the site", CHOICE),
         shared::CYTOPLASM_SHEAR_MODULUS,
         shared::CYTOPLASM_POISSON_RATIO,
         shared::NUCLEUS_SHEAR_MODULUS,
@@ -67,20 +70,21 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         p("bundles.youngs_modulus", K::Quantity(Pressure), D::Number(340.0), POS, "actin bundle Young's modulus", "spec (EA = 16.7 nN)"),
         p("bundles.diameter", K::Quantity(Length), D::Number(0.25), POS, "actin bundle diameter", SPEC),
         p("bundles.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin bundle prestrain (tension-only trusses)", SPEC),
+        p("bundles.fa_radius", K::Quantity(Length), D::Number(0.5), NONNEG, "radius of an FA plaque: the dome nodes within it move with the FA node (0: one node)", "choice (spec suspended cell: \"an FA may be a small patch of surface nodes tied together\")"),
         p("receptor", K::Count, D::Absent("the FA farthest from the nucleus centre"), Bounds::new(0.0, true, 127.0, true), "index of the FA indented by `site = \"receptor\"` (FA 2k and 2k + 1 end AB k)", "spec (\"an FA away from the nucleus\")"),
         shared::MICROTUBULES_YOUNGS_MODULUS,
         shared::MICROTUBULES_OUTER_DIAMETER,
         shared::MICROTUBULES_INNER_DIAMETER,
         shared::MICROTUBULES_POISSON_RATIO,
         shared::MICROTUBULES_ELEMENTS,
-        shared::MICROTUBULES_BOW_MIN,
-        shared::MICROTUBULES_BOW_MAX,
+        p("microtubules.bow_min", K::Quantity(Dimensionless), D::Number(0.25), Bounds::new(0.0, true, MAX_MT_BOW, true), "smallest sideways bow at mid-length, fraction of the chord", "choice (bows of 5-20 % make the prestress take 92 Newton iterations instead of 31: docs/adherent-cell.md)"),
+        p("microtubules.bow_max", K::Quantity(Dimensionless), D::Number(0.45), Bounds::new(0.0, true, MAX_MT_BOW, true), "largest bow, fraction of the chord", CHOICE),
         shared::MICROTUBULES_CLEARANCE_MARGIN,
         p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.5), POS, "distance of the centrosome from the nucleus surface", "choice (\"near the nucleus\")"),
         p("microtubules.centrosome_direction", K::Vector3, D::Vector3([0.0, 0.0, 1.0]), ANY, "direction of the centrosome from the nucleus centre", CHOICE),
-        p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("embedded"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice ([adherent cell](adherent-cell.md#coupling): free MTs carry nothing under a tip and stall Newton)"),
+        p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice ([adherent cell](adherent-cell.md#coupling): embedded MTs stall the prestress)"),
         shared::MICROTUBULES_EMBEDDED_NODES,
-        p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("tied"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice ([adherent cell](adherent-cell.md#coupling))"),
+        p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice ([adherent cell](adherent-cell.md#coupling))"),
         shared::SOLVER_STABILIZATION,
         shared::SOLVER_ITERATION,
         shared::INTERMEDIATE_YOUNGS_MODULUS,
@@ -122,6 +126,7 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
         bundle_height: v.number("bundles.height"),
         bundle_spread: v.number("bundles.spread"),
         receptor: v.optional_count("receptor"),
+        fa_radius: v.number("bundles.fa_radius"),
         mt_elements: v.count("microtubules.elements"),
         mt_bow_min: v.number("microtubules.bow_min"),
         mt_bow_max: v.number("microtubules.bow_max"),
