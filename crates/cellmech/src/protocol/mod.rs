@@ -450,11 +450,20 @@ mod tests {
                         .unwrap();
                 }
                 let protocol = Protocol::from_values(kind, &values).unwrap();
-                let mut cell = SuspendedCell::default();
-                cell.params.mesh.core_divisions = 4;
-                cell.params.mesh.shell_layers = 2;
-                cell.params.mesh.outer_layers = 2;
-                let mut built = cell.build().unwrap();
+                let mut built = if kind == "afm-indentation" {
+                    let mut cell = crate::cell::adherent::AdherentCell::default();
+                    cell.params.mesh.shell_layers = 2;
+                    cell.params.mesh.outer_layers = 2;
+                    cell.params.refinement.element_size = 0.5;
+                    cell.site = protocol.indentation_site();
+                    cell.build().unwrap()
+                } else {
+                    let mut cell = SuspendedCell::default();
+                    cell.params.mesh.core_divisions = 4;
+                    cell.params.mesh.shell_layers = 2;
+                    cell.params.mesh.outer_layers = 2;
+                    cell.build().unwrap()
+                };
                 assert_eq!(
                     built.step_control.stabilization.map(|s| s.activation),
                     Some(Activation::OnDifficulty)
