@@ -48,6 +48,16 @@ pub const EXAMPLES: &[Example] = &[
         text: include_str!("../../../examples/plate-compression.toml"),
     },
     Example {
+        name: "adherent-afm-apex",
+        summary: "adherent cell indented by a 200 nm AFM tip at the apex",
+        text: include_str!("../../../examples/adherent-afm-apex.toml"),
+    },
+    Example {
+        name: "adherent-afm-receptor",
+        summary: "adherent cell indented by a 200 nm AFM tip at a receptor (FA)",
+        text: include_str!("../../../examples/adherent-afm-receptor.toml"),
+    },
+    Example {
         name: "afm-indentation",
         summary: "paraboloid AFM tip indenting a soft layer (quarter model)",
         text: include_str!("../../../examples/afm-indentation.toml"),

@@ -22,6 +22,7 @@ use std::path::Path;
 use cellmech_fem::solve::{NullObserver, Observer};
 
 use crate::analysis::{Analysis, CellStudy};
+use crate::cell::adherent::AdherentCell;
 use crate::cell::suspended::{CellModelError, SuspendedCell};
 use crate::cell::BuiltCell;
 use crate::model::OutputSpec;
@@ -34,6 +35,8 @@ use crate::run::{RunError, RunSummary};
 pub enum CellModel {
     /// The suspended bendo-tensegrity cell (`cell::suspended`).
     Suspended(SuspendedCell),
+    /// The adherent bendo-tensegrity cell (`cell::adherent`).
+    Adherent(AdherentCell),
 }
 
 impl CellModel {
@@ -41,7 +44,27 @@ impl CellModel {
     pub fn build(&self) -> Result<BuiltCell, CellModelError> {
         match self {
             CellModel::Suspended(c) => c.build(),
+            CellModel::Adherent(c) => c.build(),
         }
+    }
+
+    /// Builds the cell for `protocol`: an adherent cell is refined at the protocol's
+    /// indentation site.
+    pub fn build_for(&self, protocol: &Protocol) -> Result<BuiltCell, CellModelError> {
+        match (self, protocol.indentation_site()) {
+            (CellModel::Adherent(c), Some(site)) => {
+                let mut c = c.clone();
+                c.site = Some(site);
+                c.build()
+            }
+            _ => self.build(),
+        }
+    }
+}
+
+impl From<AdherentCell> for CellModel {
+    fn from(cell: AdherentCell) -> Self {
+        CellModel::Adherent(cell)
     }
 }
 
@@ -112,7 +135,7 @@ impl Experiment {
 
     /// Builds the cell, applies the protocol and returns the analysis ready to run.
     pub fn analysis(&self) -> Result<Analysis, ExperimentError> {
-        let mut cell = self.cell.build()?;
+        let mut cell = self.cell.build_for(&self.protocol)?;
         let plan = self.protocol.apply(&mut cell)?;
         // The protocol's own reaction curves (its handles index them) come first.
         let protocol_curves = std::mem::take(&mut cell.model.output.curves);
@@ -149,7 +172,10 @@ impl Experiment {
 
 /// Every declared parameter table: the cell models', then the protocols'.
 pub fn parameter_tables() -> Vec<&'static crate::param::ParamTable> {
-    let mut tables = vec![&crate::cell::suspended::params::SUSPENDED_CELL];
+    let mut tables = vec![
+        &crate::cell::suspended::params::SUSPENDED_CELL,
+        &crate::cell::adherent::params::ADHERENT_CELL,
+    ];
     tables.extend(crate::protocol::TABLES);
     tables
 }

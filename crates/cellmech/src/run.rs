@@ -66,10 +66,13 @@ pub struct SystemSize {
     pub dofs: usize,
     /// Stored nonzeros of the tangent (lower triangle; after eliminating embedded DOFs).
     pub tangent_nonzeros: usize,
-    /// DOFs eliminated by embedding (they follow their hosts).
+    /// DOFs eliminated by linear ties: embedded nodes (they follow their hosts) and hanging
+    /// nodes of a locally refined mesh (they follow the coarse side).
     pub constrained_dofs: usize,
     /// What each embedding did.
     pub embedding: Vec<crate::model::EmbedSummary>,
+    /// Hanging nodes of a locally refined mesh, tied in their 3 translations.
+    pub hanging_nodes: usize,
 }
 
 /// Why a run failed.
@@ -238,6 +241,7 @@ pub fn run_with_threads(
             tangent_nonzeros: model.problem.tangent_nonzeros(),
             constrained_dofs: model.problem.num_constrained_dofs(),
             embedding: model.embedding.clone(),
+            hanging_nodes: model.hanging_nodes,
         },
         steps: writer.stats.clone(),
         wall_time_s: start.elapsed().as_secs_f64(),

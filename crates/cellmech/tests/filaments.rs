@@ -155,6 +155,7 @@ fn model() -> Analysis {
             supports: Vec::new(),
             shape_probes: Vec::new(),
             embedded: Vec::new(),
+            hanging: Vec::new(),
         },
         cell: None,
         echo: toml::Table::new(),

@@ -8,7 +8,9 @@
 //!
 //! The tie is linear in the DOFs, hence exact at any deformation (ξ stays fixed). Rotational
 //! DOFs of beam nodes are not touched (they stay free). Nodes that are themselves host nodes
-//! are already part of the continuum and are skipped (listed as `shared`).
+//! are already part of the continuum and are skipped (listed as `shared`). A host node that
+//! is tied itself (a hanging node of a refined mesh, tied first) is replaced by its masters
+//! ([`LinearConstraints::add_resolved`]), so the embedded node's masters are never slaves.
 
 use crate::dof::DofMap;
 use crate::mesh::locate::{HostLocation, HostLocator, LocateError};
@@ -150,7 +152,7 @@ pub fn embed_translations(
         for c in 0..3 {
             let masters: [(usize, f64); 8] = std::array::from_fn(|a| (host_dofs[a][c], weights[a]));
             constraints
-                .add(slave[c], &masters)
+                .add_resolved(slave[c], &masters)
                 .map_err(|source| EmbedError::Constraint { node, source })?;
         }
         report.max_overshoot = report.max_overshoot.max(host.overshoot);

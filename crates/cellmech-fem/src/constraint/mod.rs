@@ -3,18 +3,21 @@
 //! A constraint makes one **slave** DOF a fixed linear combination of **master** DOFs. It
 //! knows nothing about elements or meshes: the embedded-element technique
 //! ([`embed::embed_translations`]) produces one constraint per translational DOF of an
-//! embedded node, with the host hex8's shape-function values as weights, but any linear,
-//! homogeneous tie can be expressed the same way.
+//! embedded node, with the host hex8's shape-function values as weights; the hanging nodes
+//! of a locally refined mesh ([`hanging::tie_hanging_nodes`]) are tied the same way, and any
+//! linear, homogeneous tie can be expressed so.
 //!
 //! Rules, checked when a constraint is added (clear errors, never panics):
 //! * DOF indices exist, weights are finite, a slave is constrained once;
 //! * a master is never a slave (no chains), so `u = T ū` with `ū` the unconstrained DOFs
-//!   is explicit and the reduced system is `Tᵀ K T`, `Tᵀ r` ([`condense`]).
+//!   is explicit and the reduced system is `Tᵀ K T`, `Tᵀ r` ([`condense`]);
+//!   [`LinearConstraints::add_resolved`] substitutes tied masters by their own masters.
 //!
 //! Weights that are exactly zero are dropped, and repeated masters are merged.
 
 pub mod condense;
 pub mod embed;
+pub mod hanging;
 
 /// Why a constraint could not be added.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -158,6 +161,27 @@ impl LinearConstraints {
         Ok(())
     }
 
+    /// Like [`LinearConstraints::add`], but a master that is already a slave is replaced by
+    /// its own masters, weights multiplied (`u_s = Σ w u_m` with `u_m = Σ v u_k`). Use it to
+    /// tie a node to DOFs that may be tied themselves, e.g. an embedded node whose host has
+    /// hanging corner nodes. The slave must still not be a master of an existing tie.
+    pub fn add_resolved(
+        &mut self,
+        slave: usize,
+        masters: &[(usize, f64)],
+    ) -> Result<(), ConstraintError> {
+        let mut expanded: Vec<(usize, f64)> = Vec::with_capacity(masters.len());
+        for &(master, weight) in masters {
+            match self.masters_of(master) {
+                Some((ms, ws)) if master != slave => {
+                    expanded.extend(ms.iter().zip(ws).map(|(&m, &w)| (m, w * weight)))
+                }
+                _ => expanded.push((master, weight)),
+            }
+        }
+        self.add(slave, &expanded)
+    }
+
     /// Number of DOFs of the model the set is built for.
     pub fn num_dofs(&self) -> usize {
         self.num_dofs
@@ -294,5 +318,26 @@ mod tests {
         assert_eq!(r, vec![0.0, 1.0, 4.0, 0.0, 1.0, 0.0]);
         assert_eq!(c.distribute(3, 2.0), vec![(2, 1.0), (4, 1.0)]);
         assert_eq!(c.distribute(5, 2.0), vec![(5, 2.0)]);
+    }
+
+    #[test]
+    fn constraints_add_resolved_substitutes_tied_masters() {
+        let mut c = LinearConstraints::new(6);
+        c.add(2, &[(0, 0.5), (1, 0.5)]).unwrap();
+        // u5 = 0.5 u2 + 0.5 u1 = 0.25 u0 + 0.75 u1.
+        c.add_resolved(5, &[(2, 0.5), (1, 0.5)]).unwrap();
+        assert_eq!(c.masters_of(5), Some((&[0, 1][..], &[0.25, 0.75][..])));
+        let mut u = vec![4.0, 8.0, 0.0, 0.0, 0.0, 0.0];
+        c.expand(&mut u);
+        assert_eq!((u[2], u[5]), (6.0, 7.0));
+        // A master of an existing tie still cannot become a slave.
+        assert_eq!(
+            c.add_resolved(0, &[(3, 1.0)]),
+            Err(ConstraintError::MasterIsSlave { slave: 0, dof: 0 })
+        );
+        assert_eq!(
+            c.add_resolved(3, &[(3, 1.0)]),
+            Err(ConstraintError::MasterIsSlave { slave: 3, dof: 3 })
+        );
     }
 }

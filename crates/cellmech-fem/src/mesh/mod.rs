@@ -5,6 +5,7 @@
 
 pub mod generate;
 pub mod locate;
+pub mod refine;
 pub mod surface;
 
 use std::collections::BTreeMap;

@@ -58,7 +58,7 @@ pub enum SurfaceError {
 
 /// Sign of the trilinear Jacobian at the element centre (mixed product of the mean edge
 /// vectors along ξ, η, ζ).
-fn orientation(nodes: &[[f64; 3]], hex: &[usize]) -> f64 {
+pub(crate) fn orientation(nodes: &[[f64; 3]], hex: &[usize]) -> f64 {
     let x = |a: usize| nodes[hex[a]];
     let mean_diff = |pairs: [(usize, usize); 4]| -> [f64; 3] {
         std::array::from_fn(|i| pairs.iter().map(|&(p, m)| x(p)[i] - x(m)[i]).sum::<f64>())

@@ -74,15 +74,16 @@ impl Problem {
         if let Some(&(dof, _)) = step.prescribed.iter().find(|(d, _)| c.is_slave(*d)) {
             let (node, comp) = self.dof_map.node_of(dof);
             return Err(format!(
-                "DOF {dof} (node {node}, component {comp}) is constrained (embedded) and cannot \
-                 be prescribed; prescribe its masters (the host nodes) instead"
+                "DOF {dof} (node {node}, component {comp}) is constrained (an embedded or hanging \
+                 node) and cannot be prescribed; prescribe its masters instead"
             ));
         }
         if let Some(load) = step.loads.iter().find(|l| c.is_slave(l.dof)) {
             let (node, comp) = self.dof_map.node_of(load.dof);
             return Err(format!(
-                "DOF {} (node {node}, component {comp}) is constrained (embedded) and cannot be \
-                 loaded; apply the equivalent master loads (LinearConstraints::distribute)",
+                "DOF {} (node {node}, component {comp}) is constrained (an embedded or hanging \
+                 node) and cannot be loaded; apply the equivalent master loads \
+                 (LinearConstraints::distribute)",
                 load.dof
             ));
         }

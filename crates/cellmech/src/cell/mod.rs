@@ -1,10 +1,11 @@
-//! Cell models: one folder per model ([`suspended`] now; the adherent cell next), each with
+//! Cell models: one folder per model ([`suspended`], [`adherent`]), each with
 //! its declared parameters (`params.rs`: defaults, units, ranges, sources), validation,
 //! geometry and builder. A builder turns its parameters into a [`BuiltCell`]: the model
 //! parts every cellmech model is made of ([`crate::model::ModelSpec`] without tools or
 //! steps) plus what a protocol needs to know about the cell (its size, its test axis, its
 //! surface, its supports). Nothing here knows about protocols or scenario files.
 
+pub mod adherent;
 pub mod suspended;
 pub(crate) mod vec3;
 
@@ -33,6 +34,9 @@ pub struct BuiltCell {
     /// The base control of every step (viscous stabilisation, iteration method): the
     /// prestress and every protocol step start from it and set their increments.
     pub step_control: cellmech_fem::solve::StepControl,
+    /// The point where an indenter may press (µm) and the surface's outward normal there:
+    /// the site the mesh is refined at (`None`: the cell has none).
+    pub site: Option<([f64; 3], [f64; 3])>,
 }
 
 /// What is known about a built cell, for outputs and summaries (`summary.json`).

@@ -16,6 +16,7 @@ pub use spec::{
 };
 
 use cellmech_fem::constraint::embed::embed_translations;
+use cellmech_fem::constraint::hanging::{tie_hanging_nodes, HangingTieError};
 use cellmech_fem::constraint::LinearConstraints;
 use cellmech_fem::continuum::ContinuumBlock;
 use cellmech_fem::dof::DofMap;
@@ -110,6 +111,8 @@ pub struct BuiltModel {
     pub support_dofs: Vec<usize>,
     /// What each embedding did.
     pub embedding: Vec<EmbedSummary>,
+    /// Number of hanging nodes tied to their masters (a locally refined mesh).
+    pub hanging_nodes: usize,
     /// Every enabled filament and where its elements are in the family terms.
     pub filaments: filaments::FilamentIndex,
 }
@@ -153,6 +156,27 @@ pub enum BuildError {
         /// What went wrong.
         message: String,
     },
+    /// The hanging nodes of a refined mesh could not be tied.
+    #[error("hanging nodes: {0}")]
+    Hanging(#[from] HangingTieError),
+    /// A tied node (hanging or embedded) is prescribed, but not all its masters move the
+    /// same way, so the prescription would contradict the tie.
+    #[error(
+        "step '{step}': node {node} is tied to other nodes (a hanging or embedded node) and \
+         its component {component} is prescribed, but its masters (nodes {masters:?}) do not \
+         all get the same motion; prescribe that motion on them too (add them to the node \
+         set) or leave the node out of the set"
+    )]
+    TiedNodePrescribed {
+        /// The step.
+        step: String,
+        /// The tied node.
+        node: usize,
+        /// The component (0, 1, 2).
+        component: usize,
+        /// Its masters' nodes.
+        masters: Vec<usize>,
+    },
 }
 
 /// Builds the engine problem for `model`.
@@ -176,16 +200,17 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
     let filaments = filaments::FilamentIndex::new(structures, mesh, terms.len())
         .map_err(BuildError::Filaments)?;
     terms.extend(structures::structure_terms(mesh, structures, &dof_map)?);
+    let (constraints, embedding) = constraints(model, &dof_map)?;
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
     let steps = model
         .steps
         .iter()
         .map(|s| {
-            let mut step = engine_step(s, &set, &dof_map);
+            let mut step = engine_step(s, &set, &dof_map, constraints.as_ref())?;
             tools::apply_to_step(&mut step, s);
-            step
+            Ok(step)
         })
-        .collect();
+        .collect::<Result<_, BuildError>>()?;
     let curves = model
         .output
         .curves
@@ -220,7 +245,6 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         })
         .map(|(n, c)| dof_map.dof(n, c))
         .collect();
-    let (constraints, embedding) = embed(model, &dof_map)?;
     let solver = Box::new(FaerSparseSolver::default());
     let mut problem = match constraints {
         Some(c) => Problem::with_constraints(dof_map, terms, c, solver)?,
@@ -235,21 +259,25 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         probes,
         support_dofs,
         embedding,
+        hanging_nodes: model.hanging.len(),
         filaments,
     })
 }
 
-/// The linear constraints of the model's embeddings (`None` without any).
-fn embed(
+/// The linear constraints of the model (`None` without any): the hanging-node ties first,
+/// then the embeddings, whose host weights on hanging nodes are expanded through the ties
+/// (masters are never slaves).
+fn constraints(
     model: &ModelSpec,
     dof_map: &DofMap,
 ) -> Result<(Option<LinearConstraints>, Vec<EmbedSummary>), BuildError> {
-    if model.embedded.is_empty() {
+    if model.embedded.is_empty() && model.hanging.is_empty() {
         return Ok((None, Vec::new()));
     }
+    let mut constraints = LinearConstraints::new(dof_map.num_dofs());
+    tie_hanging_nodes(&mut constraints, dof_map, &model.hanging)?;
     let mesh = &model.mesh;
     let used = structures::enabled_structure_nodes(&model.structures, mesh.num_nodes());
-    let mut constraints = LinearConstraints::new(dof_map.num_dofs());
     let mut summaries = Vec::new();
     for spec in &model.embedded {
         let fail = |message: String| BuildError::Embed {
@@ -285,7 +313,15 @@ fn embed(
     Ok((Some(constraints), summaries))
 }
 
-fn engine_step<'a>(spec: &StepSpec, set: &impl Fn(&str) -> &'a [usize], dofs: &DofMap) -> Step {
+/// The engine step of `spec`. A prescribed tied DOF (slave) is dropped when all its masters
+/// get the same motion (it then follows them exactly: the weights sum to 1), and is an
+/// error otherwise; a load on a slave goes to its masters.
+fn engine_step<'a>(
+    spec: &StepSpec,
+    set: &impl Fn(&str) -> &'a [usize],
+    dofs: &DofMap,
+    constraints: Option<&LinearConstraints>,
+) -> Result<Step, BuildError> {
     let mut step = Step::new(spec.name.clone());
     step.control = spec.control;
     let mut motion: std::collections::BTreeMap<usize, Motion> = Default::default();
@@ -301,15 +337,47 @@ fn engine_step<'a>(spec: &StepSpec, set: &impl Fn(&str) -> &'a [usize], dofs: &D
             motion.insert(dofs.dof(node, *c), Motion::By(*value));
         }
     }
+    if let Some(constraints) = constraints {
+        let slaves: Vec<(usize, Motion)> = motion
+            .iter()
+            .filter(|(&d, _)| constraints.is_slave(d))
+            .map(|(&d, &m)| (d, m))
+            .collect();
+        for (slave, m) in slaves {
+            let Some((masters, weights)) = constraints.masters_of(slave) else {
+                continue;
+            };
+            let follows = masters.iter().all(|d| motion.get(d) == Some(&m))
+                && (weights.iter().sum::<f64>() - 1.0).abs() <= 1e-12;
+            if !follows {
+                let (node, component) = dofs.node_of(slave);
+                let mut nodes: Vec<usize> = masters.iter().map(|&d| dofs.node_of(d).0).collect();
+                nodes.dedup();
+                return Err(BuildError::TiedNodePrescribed {
+                    step: spec.name.clone(),
+                    node,
+                    component,
+                    masters: nodes,
+                });
+            }
+            motion.remove(&slave);
+        }
+    }
     step.prescribed = motion.into_iter().collect();
     for (name, c, total) in &spec.forces {
         let nodes = set(name);
         for &node in nodes {
-            step.loads.push(NodalLoad {
-                dof: dofs.dof(node, *c),
-                value: total / nodes.len() as f64,
-            });
+            let dof = dofs.dof(node, *c);
+            let value = total / nodes.len() as f64;
+            match constraints {
+                Some(t) => step.loads.extend(
+                    t.distribute(dof, value)
+                        .into_iter()
+                        .map(|(dof, value)| NodalLoad { dof, value }),
+                ),
+                None => step.loads.push(NodalLoad { dof, value }),
+            }
         }
     }
-    step
+    Ok(step)
 }

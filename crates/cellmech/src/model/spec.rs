@@ -3,6 +3,7 @@
 
 use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::NeoHookean;
+use cellmech_fem::mesh::refine::HangingNode;
 use cellmech_fem::mesh::Mesh;
 use cellmech_fem::solve::StepControl;
 
@@ -32,6 +33,10 @@ pub struct ModelSpec {
     pub shape_probes: Vec<ShapeProbeSpec>,
     /// Nodes whose translations follow the continuum they lie in (embedded elements).
     pub embedded: Vec<EmbedSpec>,
+    /// Hanging nodes of a locally refined mesh (`cellmech_fem::mesh::refine`), each tied to
+    /// its masters in every translation (see `docs/local-refinement.md`). Empty for a
+    /// conforming mesh.
+    pub hanging: Vec<HangingNode>,
 }
 
 /// Nodes embedded in host continuum blocks: each node's translations follow the host

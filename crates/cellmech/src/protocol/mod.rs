@@ -4,6 +4,8 @@
 //! the reference step, the loading steps), from which [`results`] derives the test's own
 //! curve. Nothing here parses files.
 
+pub mod afm_indentation;
+pub mod apparent_modulus;
 pub mod grip;
 pub mod micropipette_tension;
 pub mod microplate_compression;
@@ -18,6 +20,7 @@ use crate::model::StepSpec;
 use crate::param::{Bounds, ParamDef, ParamDefault, ParamKind, ParamTable, ParamValues};
 use crate::units::Dimension;
 
+pub use afm_indentation::{AfmIndentation, TipShape};
 pub use micropipette_tension::MicropipetteTension;
 pub use microplate_compression::MicroplateCompression;
 
@@ -30,19 +33,23 @@ pub enum Protocol {
     MicropipetteTension(MicropipetteTension),
     /// Two parallel plates compress the cell.
     MicroplateCompression(MicroplateCompression),
+    /// An AFM tip indents the adherent cell.
+    AfmIndentation(AfmIndentation),
 }
 
 /// The `kind` names of the protocols, in documentation order.
-pub const KINDS: [&str; 3] = [
+pub const KINDS: [&str; 4] = [
     "micropipette-tension",
     "microplate-compression",
+    "afm-indentation",
     "prestress",
 ];
 
 /// The parameter table of each protocol that has parameters.
-pub const TABLES: [&ParamTable; 2] = [
+pub const TABLES: [&ParamTable; 3] = [
     &micropipette_tension::MICROPIPETTE_TENSION,
     &microplate_compression::MICROPLATE_COMPRESSION,
+    &afm_indentation::AFM_INDENTATION,
 ];
 
 /// The prestress protocol has no parameters.
@@ -58,6 +65,7 @@ impl Protocol {
         match kind {
             "micropipette-tension" => Some(&micropipette_tension::MICROPIPETTE_TENSION),
             "microplate-compression" => Some(&microplate_compression::MICROPLATE_COMPRESSION),
+            "afm-indentation" => Some(&afm_indentation::AFM_INDENTATION),
             "prestress" => Some(&PRESTRESS),
             _ => None,
         }
@@ -72,6 +80,7 @@ impl Protocol {
             "microplate-compression" => {
                 Protocol::MicroplateCompression(MicroplateCompression::from_values(values))
             }
+            "afm-indentation" => Protocol::AfmIndentation(AfmIndentation::from_values(values)),
             "prestress" => Protocol::Prestress,
             _ => return None,
         })
@@ -83,6 +92,15 @@ impl Protocol {
             Protocol::Prestress => "prestress",
             Protocol::MicropipetteTension(_) => "micropipette-tension",
             Protocol::MicroplateCompression(_) => "microplate-compression",
+            Protocol::AfmIndentation(_) => "afm-indentation",
+        }
+    }
+
+    /// Where the protocol indents the cell (the cell refines its mesh there), if it does.
+    pub fn indentation_site(&self) -> Option<crate::cell::adherent::IndentationSite> {
+        match self {
+            Protocol::AfmIndentation(p) => Some(p.site),
+            _ => None,
         }
     }
 
@@ -94,6 +112,7 @@ impl Protocol {
             Protocol::Prestress => Ok(ProtocolPlan::Prestress),
             Protocol::MicropipetteTension(p) => p.apply(cell),
             Protocol::MicroplateCompression(p) => p.apply(cell),
+            Protocol::AfmIndentation(p) => p.apply(cell),
         }
     }
 }
@@ -226,6 +245,27 @@ pub enum ProtocolPlan {
         /// Compression steps, in order, with their target deformation of the diameter.
         deformations: Vec<(usize, f64)>,
     },
+    /// AFM indentation of the adherent cell along −z.
+    AfmIndentation {
+        /// The tip.
+        tip: ToolHandle,
+        /// Step that ends at first contact.
+        contact_step: usize,
+        /// Indentation steps, in order, with their target depth from first contact (µm).
+        depths: Vec<(usize, f64)>,
+        /// The retract step, if any.
+        retract_step: Option<usize>,
+        /// `apex`, `receptor` or `point`.
+        site: String,
+        /// The site on the undeformed dome (µm).
+        site_point: [f64; 3],
+        /// Tip shape.
+        tip_shape: afm_indentation::TipShape,
+        /// Tip radius (µm).
+        tip_radius: f64,
+        /// The apparent-modulus fit of the curve.
+        fit: apparent_modulus::FitSettings,
+    },
 }
 
 /// The declared `contact_force` of the two-tool protocols.
@@ -236,7 +276,8 @@ impl ProtocolPlan {
         match self {
             ProtocolPlan::Prestress => None,
             ProtocolPlan::MicropipetteTension { reference_step, .. } => Some(*reference_step),
-            ProtocolPlan::MicroplateCompression { contact_step, .. } => Some(*contact_step),
+            ProtocolPlan::MicroplateCompression { contact_step, .. }
+            | ProtocolPlan::AfmIndentation { contact_step, .. } => Some(*contact_step),
         }
     }
 }
@@ -409,11 +450,20 @@ mod tests {
                         .unwrap();
                 }
                 let protocol = Protocol::from_values(kind, &values).unwrap();
-                let mut cell = SuspendedCell::default();
-                cell.params.mesh.core_divisions = 4;
-                cell.params.mesh.shell_layers = 2;
-                cell.params.mesh.outer_layers = 2;
-                let mut built = cell.build().unwrap();
+                let mut built = if kind == "afm-indentation" {
+                    let mut cell = crate::cell::adherent::AdherentCell::default();
+                    cell.params.mesh.shell_layers = 2;
+                    cell.params.mesh.outer_layers = 2;
+                    cell.params.refinement.element_size = 0.5;
+                    cell.site = protocol.indentation_site();
+                    cell.build().unwrap()
+                } else {
+                    let mut cell = SuspendedCell::default();
+                    cell.params.mesh.core_divisions = 4;
+                    cell.params.mesh.shell_layers = 2;
+                    cell.params.mesh.outer_layers = 2;
+                    cell.build().unwrap()
+                };
                 assert_eq!(
                     built.step_control.stabilization.map(|s| s.activation),
                     Some(Activation::OnDifficulty)

@@ -56,10 +56,14 @@ pub struct ProtocolResults {
     pub caps: Option<super::grip::CapReport>,
     /// The test curve, from the reference state on.
     pub curve: Vec<TestPoint>,
-    /// Compression: the point at the end of each compression step.
+    /// Compression: the point at the end of each compression step; AFM: at each depth.
     pub at_deformations: Vec<(f64, TestPoint)>,
     /// The last point (end of the test or the last converged increment).
     pub last: Option<TestPoint>,
+    /// AFM: the apparent Young's modulus fitted to the loading curve (`None` with fewer than
+    /// three points in the fit range), or why the fit failed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub apparent_modulus: Option<Result<super::apparent_modulus::ApparentModulusFit, String>>,
     /// Files written.
     pub files: Vec<String>,
 }
@@ -97,6 +101,23 @@ pub fn write_protocol_results(
             -1.0,
             deformations.iter().map(|(s, _)| *s).collect(),
         ),
+        ProtocolPlan::AfmIndentation {
+            tip,
+            contact_step,
+            depths,
+            retract_step,
+            ..
+        } => (
+            "afm-indentation",
+            Holder::Tool(tip.clone()),
+            *contact_step,
+            -1.0,
+            depths
+                .iter()
+                .map(|(s, _)| *s)
+                .chain(retract_step.iter().copied())
+                .collect(),
+        ),
         ProtocolPlan::Prestress => return Ok(None),
     };
     let column = |name: &str| {
@@ -110,7 +131,8 @@ pub fn write_protocol_results(
     let strain = column("nucleus_max_principal_log_strain")?;
     let strain_from_reference = column("nucleus_max_principal_log_strain_from_reference")?;
     let aspect = column("nucleus_aspect_ratio")?;
-    let support = column("support_reaction_max_nN")?;
+    // Cells without minimal supports (the clamped adherent cell) have no such column.
+    let support = writer.column("support_reaction_max_nN").unwrap_or_default();
     let d = cell.cell_diameter;
     let area = std::f64::consts::PI * d * d / 4.0;
     let last_row_of = |s: usize| step.iter().rposition(|&k| k as usize == s);
@@ -132,6 +154,7 @@ pub fn write_protocol_results(
         curve: Vec::new(),
         at_deformations: Vec::new(),
         last: None,
+        apparent_modulus: None,
         files: Vec::new(),
     };
     let Some(reference) = last_row_of(reference_step) else {
@@ -156,34 +179,43 @@ pub fn write_protocol_results(
             nucleus_aspect_ratio: aspect[r],
         }
     };
+    let mut curve_rows = vec![reference];
     results.curve.push(point(reference));
     for r in reference + 1..step.len() {
         if loading.contains(&(step[r] as usize)) {
             results.curve.push(point(r));
+            curve_rows.push(r);
         }
     }
-    if let ProtocolPlan::MicroplateCompression { deformations, .. } = plan {
-        for (s, target) in deformations {
-            if let Some(r) = last_row_of(*s) {
-                results.at_deformations.push((*target, point(r)));
-            }
+    let targets = match plan {
+        ProtocolPlan::MicroplateCompression { deformations, .. } => deformations.clone(),
+        ProtocolPlan::AfmIndentation { depths, .. } => depths.clone(),
+        _ => Vec::new(),
+    };
+    for (s, target) in targets {
+        if let Some(r) = last_row_of(s) {
+            results.at_deformations.push((target, point(r)));
         }
     }
     results.last = results.curve.last().copied();
-    let (stem, x_label) = if sign > 0.0 {
-        ("tension", "elongation (µm)")
-    } else {
-        ("compression", "plate travel from contact (µm)")
+    let (stem, x_label, x_column) = match kind {
+        "micropipette-tension" => ("tension", "elongation (µm)", "elongation_um"),
+        "afm-indentation" => (
+            "indentation",
+            "indentation from first contact (µm)",
+            "indentation_um",
+        ),
+        _ => (
+            "compression",
+            "plate travel from contact (µm)",
+            "plate_travel_um",
+        ),
     };
     let csv = format!("{stem}.csv");
     let mut out = CurveWriter::create(
         &dir.join(&csv),
         &[
-            if sign > 0.0 {
-                "elongation_um"
-            } else {
-                "plate_travel_um"
-            },
+            x_column,
             "strain_of_diameter",
             "force_nN",
             "normalised_stiffness_kPa",
@@ -215,14 +247,21 @@ pub fn write_protocol_results(
             .collect(),
         style: SeriesStyle::LineAndMarkers,
     };
-    let title = match kind {
-        "micropipette-tension" => "Suspended cell: micropipette tension",
-        _ => "Suspended cell: microplate compression",
+    let title = match plan {
+        ProtocolPlan::MicropipetteTension { .. } => "Suspended cell: micropipette tension".into(),
+        ProtocolPlan::AfmIndentation { site, .. } => {
+            format!("Adherent cell: AFM indentation at the {site}")
+        }
+        _ => "Suspended cell: microplate compression".to_string(),
     };
     let plots = [
         (
             format!("{stem}-force.{plot_extension}"),
-            "force on the moving tool (nN)",
+            if kind == "afm-indentation" {
+                "force on the tip (nN)"
+            } else {
+                "force on the moving tool (nN)"
+            },
             vec![series("force", |p| p.force_nn)],
         ),
         (
@@ -259,9 +298,39 @@ pub fn write_protocol_results(
             ],
         ));
     }
+    if let ProtocolPlan::AfmIndentation {
+        fit, depths, site, ..
+    } = plan
+    {
+        // The loading part of the curve (the retract step is not fitted).
+        let last_depth_step = depths.last().map_or(0, |(s, _)| *s);
+        let loading: Vec<&TestPoint> = results
+            .curve
+            .iter()
+            .zip(&curve_rows)
+            .filter(|(_, r)| step[**r] as usize <= last_depth_step)
+            .map(|(p, _)| p)
+            .collect();
+        let depth: Vec<f64> = loading.iter().map(|p| p.displacement_um).collect();
+        let force: Vec<f64> = loading.iter().map(|p| p.force_nn).collect();
+        let result = super::apparent_modulus::fit_apparent_modulus(&depth, &force, fit);
+        if let Ok(f) = &result {
+            let file = format!("{stem}-fit.{plot_extension}");
+            super::apparent_modulus::write_fit_plot(
+                &dir.join(&file),
+                &format!("Adherent cell at the {site}: apparent modulus"),
+                &depth,
+                &force,
+                f,
+            )
+            .map_err(|e| e.to_string())?;
+            results.files.push(file);
+        }
+        results.apparent_modulus = Some(result.map_err(|e| e.to_string()));
+    }
     for (file, y_label, series) in plots {
         let spec = PlotSpec {
-            title: title.into(),
+            title: title.clone(),
             x_label: x_label.into(),
             y_label: y_label.into(),
             series,

@@ -2,8 +2,8 @@
 //! read against their declared parameter tables ([`crate::param`]): units converted,
 //! ranges checked, unknown keys rejected with a suggestion, errors with line and key.
 //!
-//! `[cell]` replaces `[mesh]`, `[[material]]` and the filament sections (the suspended cell
-//! of `shared/spec/cell-models.md`, see [`crate::cell::suspended`]); `[protocol]` replaces
+//! `[cell]` replaces `[mesh]`, `[[material]]` and the filament sections (the suspended or
+//! adherent cell of `shared/spec/cell-models.md`, see [`crate::cell`]); `[protocol]` replaces
 //! `[[tool]]` and `[[step]]` (see [`crate::protocol`]). `[families.<name>]` (`membrane`,
 //! `actin`, `microtubule`, `intermediate`) still switches components off or scales them.
 
@@ -12,13 +12,16 @@ use toml::Spanned;
 
 use super::context::Ctx;
 use super::ScenarioError;
+use crate::cell::adherent::{params::ADHERENT_CELL, AdherentCell};
 use crate::cell::suspended::{params::SUSPENDED_CELL, SuspendedCell};
 use crate::cell::BuiltCell;
 use crate::param::{read_section, ParamError};
+use crate::protocol::afm_indentation::AFM_INDENTATION;
+use crate::protocol::AfmIndentation;
 use crate::protocol::{Protocol, ProtocolPlan, KINDS, TABLES};
 
 /// The cell models `[cell] model = ...` accepts.
-pub const MODELS: [&str; 1] = ["suspended"];
+pub const MODELS: [&str; 2] = ["suspended", "adherent"];
 
 fn param_error(ctx: &Ctx, e: ParamError) -> ScenarioError {
     ctx.invalid(e.span, &e.key, e.message)
@@ -50,26 +53,44 @@ pub(super) fn resolve_cell(
     section_span: std::ops::Range<usize>,
 ) -> Result<BuiltCell, ScenarioError> {
     let root = root(ctx)?;
+    let mut adherent = false;
     if let Some((v, model)) = word(root.get_ref(), "cell", "model") {
-        if model != Some("suspended") {
-            return Err(ctx.invalid(
-                Some(v.span()),
-                "cell.model",
-                format!(
-                    "expected \"suspended\"; found {}",
-                    v.get_ref().as_str().map_or_else(
-                        || v.get_ref().type_str().to_string(),
-                        |s| format!("\"{s}\"")
-                    )
-                ),
-            ));
+        match model {
+            Some("suspended") => {}
+            Some("adherent") => adherent = true,
+            _ => {
+                return Err(ctx.invalid(
+                    Some(v.span()),
+                    "cell.model",
+                    format!(
+                        "expected \"{}\"; found {}",
+                        MODELS.join("\" or \""),
+                        v.get_ref().as_str().map_or_else(
+                            || v.get_ref().type_str().to_string(),
+                            |s| format!("\"{s}\"")
+                        )
+                    ),
+                ))
+            }
         }
     }
-    let values = read_section(root.get_ref(), &SUSPENDED_CELL, &["model"], &[])
-        .map_err(|e| param_error(ctx, e))?;
-    SuspendedCell::from_values(&values)
-        .build()
-        .map_err(|e| ctx.invalid(Some(section_span), "cell", e.to_string()))
+    let built = if adherent {
+        let values = read_section(root.get_ref(), &ADHERENT_CELL, &["model"], &[])
+            .map_err(|e| param_error(ctx, e))?;
+        let mut cell = AdherentCell::from_values(&values);
+        // The mesh is refined where the protocol indents.
+        if let Some((_, Some("afm-indentation"))) = word(root.get_ref(), "protocol", "kind") {
+            let values = read_section(root.get_ref(), &AFM_INDENTATION, &["kind"], &TABLES)
+                .map_err(|e| param_error(ctx, e))?;
+            cell.site = Some(AfmIndentation::from_values(&values).site);
+        }
+        cell.build()
+    } else {
+        let values = read_section(root.get_ref(), &SUSPENDED_CELL, &["model"], &[])
+            .map_err(|e| param_error(ctx, e))?;
+        SuspendedCell::from_values(&values).build()
+    };
+    built.map_err(|e| ctx.invalid(Some(section_span), "cell", e.to_string()))
 }
 
 /// Reads `[protocol]` and applies it to `cell` (which gains the protocol's node sets, tools

@@ -129,13 +129,14 @@ pub fn resolve(
             super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
         }
     };
-    let (supports, shape_probes, embedded) = match &cell {
+    let (supports, shape_probes, embedded, hanging) = match &cell {
         Some(c) => (
             c.model.supports.clone(),
             c.model.shape_probes.clone(),
             c.model.embedded.clone(),
+            c.model.hanging.clone(),
         ),
-        None => (Vec::new(), Vec::new(), Vec::new()),
+        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
     };
     let study = cell.map(|c| crate::analysis::CellStudy {
         description: c.description,
@@ -154,6 +155,7 @@ pub fn resolve(
             supports,
             shape_probes,
             embedded,
+            hanging,
         },
         cell: study,
         echo,

@@ -32,21 +32,67 @@ pub fn box_mesh(
         require_at_least(&format!("divisions[{k}]"), divisions[k], 1)?;
     }
     require_reasonable_size(divisions.iter().map(|&d| d as f64 + 1.0).product())?;
+    let axis = |a: usize| -> Vec<f64> {
+        (0..=divisions[a])
+            .map(|i| {
+                if i == divisions[a] {
+                    origin[a] + size[a]
+                } else {
+                    origin[a] + size[a] * (i as f64 / divisions[a] as f64)
+                }
+            })
+            .collect()
+    };
+    Ok(tensor_product_mesh(
+        [&axis(0), &axis(1), &axis(2)],
+        block_name,
+    ))
+}
+
+/// A tensor-product hex8 mesh whose nodes are all `(xs[i], ys[j], zs[k])`: element sizes
+/// vary along each axis as the given coordinates do (a graded box, e.g. fine under an
+/// indenter and coarse far from it; see [`AxisGrading`]). One block named `block_name`.
+///
+/// Each axis needs at least 2 finite, strictly increasing coordinates. Node numbering and
+/// node sets are those of [`box_mesh`] (`x_min` … `z_max`, `all`).
+pub fn graded_box_mesh(
+    xs: &[f64],
+    ys: &[f64],
+    zs: &[f64],
+    block_name: &str,
+) -> Result<Mesh, GenerateError> {
+    for (name, coordinates) in [("xs", xs), ("ys", ys), ("zs", zs)] {
+        require_at_least(&format!("the number of {name}"), coordinates.len(), 2)?;
+        for (i, &c) in coordinates.iter().enumerate() {
+            if !c.is_finite() {
+                return Err(GenerateError::NotFinite {
+                    parameter: format!("{name}[{i}]"),
+                    found: c,
+                });
+            }
+            if i > 0 && c <= coordinates[i - 1] {
+                return Err(GenerateError::NotIncreasing {
+                    parameter: format!("{name}[{i}]"),
+                    previous: coordinates[i - 1],
+                    found: c,
+                });
+            }
+        }
+    }
+    require_reasonable_size((xs.len() * ys.len()) as f64 * zs.len() as f64)?;
+    Ok(tensor_product_mesh([xs, ys, zs], block_name))
+}
+
+/// The mesh of [`graded_box_mesh`] from checked coordinates.
+fn tensor_product_mesh(axes: [&[f64]; 3], block_name: &str) -> Mesh {
+    let divisions = axes.map(|a| a.len() - 1);
     let [nx, ny, nz] = divisions;
     let index = |i: usize, j: usize, k: usize| i + (nx + 1) * (j + (ny + 1) * k);
-    let coordinate = |axis: usize, i: usize| {
-        if i == divisions[axis] {
-            origin[axis] + size[axis]
-        } else {
-            origin[axis] + size[axis] * (i as f64 / divisions[axis] as f64)
-        }
-    };
     let mut mesh = Mesh::default();
-    for k in 0..=nz {
-        for j in 0..=ny {
-            for i in 0..=nx {
-                mesh.nodes
-                    .push([coordinate(0, i), coordinate(1, j), coordinate(2, k)]);
+    for &z in axes[2] {
+        for &y in axes[1] {
+            for &x in axes[0] {
+                mesh.nodes.push([x, y, z]);
             }
         }
     }
@@ -81,7 +127,109 @@ pub fn box_mesh(
         mesh.insert_node_set(format!("{letter}_max"), face_set(axis, divisions[axis]));
     }
     mesh.insert_node_set("all", (0..mesh.nodes.len()).collect());
-    Ok(mesh)
+    mesh
+}
+
+/// Node coordinates along one axis, fine at one end and growing geometrically towards the
+/// other: cells of `fine_size` over the first `uniform_length` (at least one cell), then
+/// each cell at most `growth` times the previous one. For [`graded_box_mesh`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisGrading {
+    /// Size of the cells at the fine end (µm, > 0).
+    pub fine_size: f64,
+    /// Length from the fine end covered by cells of `fine_size` (µm, ≥ 0; rounded to a
+    /// whole number of cells).
+    pub uniform_length: f64,
+    /// Largest ratio of a cell to its neighbour nearer the fine end (≥ 1; 1 is uniform).
+    pub growth: f64,
+}
+
+impl AxisGrading {
+    /// The coordinates from `fine_end` to `coarse_end` (either may be the larger), in
+    /// increasing order, ending exactly at both. The growing part uses the smallest number
+    /// of cells whose ratio does not exceed `growth`, with one common ratio (found by
+    /// bisection) so that the cells exactly fill it.
+    pub fn coordinates(&self, fine_end: f64, coarse_end: f64) -> Result<Vec<f64>, GenerateError> {
+        for (parameter, value) in [("fine_end", fine_end), ("coarse_end", coarse_end)] {
+            if !value.is_finite() {
+                return Err(GenerateError::NotFinite {
+                    parameter: parameter.into(),
+                    found: value,
+                });
+            }
+        }
+        let length = (coarse_end - fine_end).abs();
+        require_positive("the length |coarse_end - fine_end|", length)?;
+        let h = self.fine_size;
+        require_positive("fine_size", h)?;
+        if !(self.uniform_length.is_finite() && self.uniform_length >= 0.0) {
+            return Err(GenerateError::Negative {
+                parameter: "uniform_length".into(),
+                found: self.uniform_length,
+            });
+        }
+        if !(self.growth.is_finite() && self.growth >= 1.0) {
+            return Err(GenerateError::GrowthOutOfRange { found: self.growth });
+        }
+        let uniform = |l: f64| -> Result<Vec<f64>, GenerateError> {
+            // The fewest equal cells of at most `h` (up to round-off).
+            let n = ((l / h) * (1.0 - 1e-12)).ceil().max(1.0);
+            require_reasonable_size(n + 1.0)?;
+            Ok(vec![l / n; n as usize])
+        };
+        let n_uniform = (self.uniform_length.min(length) / h + 1e-9)
+            .floor()
+            .max(1.0);
+        require_reasonable_size(n_uniform + 1.0)?;
+        let rest = length - n_uniform * h;
+        let sizes = if self.growth == 1.0 || rest <= 1e-12 * length {
+            uniform(length)?
+        } else {
+            // Fewest growing cells h r, h r², …, h r^m (r ≤ growth) that reach `rest`.
+            let total = |r: f64, m: usize| (1..=m).map(|k| h * r.powi(k as i32)).sum::<f64>();
+            let (mut m, mut reached, mut cell) = (0, 0.0, h);
+            while reached < rest {
+                m += 1;
+                cell *= self.growth;
+                reached += cell;
+                require_reasonable_size(n_uniform + m as f64 + 1.0)?;
+            }
+            if m as f64 * h >= rest {
+                // Too short to grow: equal cells of at most `h` over the whole length.
+                uniform(length)?
+            } else {
+                let (mut lo, mut hi) = (1.0, self.growth);
+                for _ in 0..200 {
+                    let mid = 0.5 * (lo + hi);
+                    if total(mid, m) < rest {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let r = 0.5 * (lo + hi);
+                let mut sizes = vec![h; n_uniform as usize];
+                sizes.extend((1..=m).map(|k| h * r.powi(k as i32)));
+                sizes
+            }
+        };
+        let direction = if coarse_end > fine_end { 1.0 } else { -1.0 };
+        let mut coordinates = Vec::with_capacity(sizes.len() + 1);
+        let mut at = 0.0;
+        coordinates.push(fine_end);
+        for (k, size) in sizes.iter().enumerate() {
+            at += size;
+            coordinates.push(if k + 1 == sizes.len() {
+                coarse_end
+            } else {
+                fine_end + direction * at
+            });
+        }
+        if direction < 0.0 {
+            coordinates.reverse();
+        }
+        Ok(coordinates)
+    }
 }
 
 /// Moves every node that is not on the boundary of a hex8 mesh by a seeded pseudo-random
@@ -232,6 +380,140 @@ mod tests {
         assert!(matches!(err, GenerateError::NotFinite { .. }));
         let err = box_mesh([0.0; 3], [1.0; 3], [100_000, 100_000, 1], "b").unwrap_err();
         assert!(matches!(err, GenerateError::TooLarge { .. }));
+    }
+
+    #[test]
+    fn graded_box_places_nodes_on_the_given_coordinates() {
+        let (xs, ys, zs) = ([0.0, 0.1, 0.3, 1.0], [-1.0, 0.0, 2.0], [0.0, 0.5]);
+        let mesh = graded_box_mesh(&xs, &ys, &zs, "b").unwrap();
+        mesh.validate().unwrap();
+        assert_eq!(mesh.num_nodes(), 4 * 3 * 2);
+        assert_eq!(mesh.num_elements(), 3 * 2);
+        // Node (i, j, k) sits at (xs[i], ys[j], zs[k]) with box_mesh's numbering.
+        assert_eq!(mesh.nodes[2 + 4 * (1 + 3)], [0.3, 0.0, 0.5]);
+        assert!(mesh.node_sets["x_max"]
+            .iter()
+            .all(|&n| mesh.nodes[n][0] == 1.0));
+        assert_eq!(mesh.node_sets["z_min"].len(), 12);
+        let q = hex8_quality(&mesh);
+        assert!((q.volume - 1.0 * 3.0 * 0.5).abs() < 1e-12);
+        assert!(q.min_gauss_jacobian > 0.0);
+        // Uniform coordinates give exactly the box_mesh.
+        let uniform = box_mesh([0.0; 3], [1.0, 2.0, 3.0], [2, 2, 3], "b").unwrap();
+        let graded = graded_box_mesh(
+            &[0.0, 0.5, 1.0],
+            &[0.0, 1.0, 2.0],
+            &[0.0, 1.0, 2.0, 3.0],
+            "b",
+        )
+        .unwrap();
+        assert_eq!(graded, uniform);
+    }
+
+    #[test]
+    fn graded_box_rejects_bad_coordinates() {
+        let err = graded_box_mesh(&[0.0, 1.0], &[0.0, 1.0, 1.0], &[0.0, 1.0], "b").unwrap_err();
+        assert_eq!(
+            err,
+            GenerateError::NotIncreasing {
+                parameter: "ys[2]".into(),
+                previous: 1.0,
+                found: 1.0
+            }
+        );
+        let err = graded_box_mesh(&[0.0, 1.0], &[0.0, 1.0], &[0.0], "b").unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("the number of zs to be at least 2; found 1"),
+            "{err}"
+        );
+        let err = graded_box_mesh(&[0.0, f64::INFINITY], &[0.0, 1.0], &[0.0, 1.0], "b");
+        assert!(matches!(err, Err(GenerateError::NotFinite { .. })));
+    }
+
+    #[test]
+    fn axis_grading_is_fine_at_one_end_and_grows_at_most_by_the_ratio() {
+        let grading = AxisGrading {
+            fine_size: 0.01,
+            uniform_length: 0.07,
+            growth: 1.5,
+        };
+        let x = grading.coordinates(0.0, 8.0).unwrap();
+        let cells: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+        assert_eq!((x[0], *x.last().unwrap()), (0.0, 8.0));
+        assert!(cells[..7].iter().all(|&c| (c - 0.01).abs() < 1e-15));
+        let ratios: Vec<f64> = cells.windows(2).map(|w| w[1] / w[0]).collect();
+        assert!(ratios
+            .iter()
+            .all(|&r| (1.0 - 1e-9..=1.5 + 1e-9).contains(&r)));
+        // One common ratio in the growing part, and the fewest cells: at ratio 1.5 one cell
+        // fewer would not reach the end.
+        let growing = &ratios[7..];
+        assert!(growing.iter().all(|&r| (r - growing[0]).abs() < 1e-9));
+        let m = cells.len() - 7;
+        let short: f64 = (1..m).map(|k| 0.01 * 1.5f64.powi(k as i32)).sum();
+        assert!(0.07 + short < 8.0, "{m} growing cells");
+        // Fine end at the top: coordinates still increase, the small cells at the top.
+        let z = grading.coordinates(0.0, -8.0).unwrap();
+        assert_eq!((z[0], *z.last().unwrap()), (-8.0, 0.0));
+        assert!((z[z.len() - 1] - z[z.len() - 2] - 0.01).abs() < 1e-15);
+        let mirrored: Vec<f64> = x.iter().rev().map(|v| -v).collect();
+        for (a, b) in z.iter().zip(&mirrored) {
+            assert!((a - b).abs() < 1e-12);
+        }
+        // Growth 1, or a length shorter than the growth would need: equal cells ≤ fine size.
+        let uniform = AxisGrading {
+            growth: 1.0,
+            ..grading
+        };
+        assert_eq!(uniform.coordinates(1.0, 1.1).unwrap().len(), 11);
+        let short = grading.coordinates(0.0, 0.075).unwrap();
+        assert_eq!(short.len(), 9);
+        assert!((short[1] - 0.075 / 8.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn axis_grading_rejects_bad_parameters() {
+        let good = AxisGrading {
+            fine_size: 0.1,
+            uniform_length: 0.0,
+            growth: 1.2,
+        };
+        let bad = |g: AxisGrading| g.coordinates(0.0, 1.0).unwrap_err();
+        assert_eq!(
+            bad(AxisGrading {
+                growth: 0.9,
+                ..good
+            }),
+            GenerateError::GrowthOutOfRange { found: 0.9 }
+        );
+        assert!(matches!(
+            bad(AxisGrading {
+                fine_size: 0.0,
+                ..good
+            }),
+            GenerateError::NotPositive { .. }
+        ));
+        let err = bad(AxisGrading {
+            uniform_length: -1.0,
+            ..good
+        });
+        assert!(
+            err.to_string()
+                .contains("uniform_length to be a finite number ≥ 0; found -1"),
+            "{err}"
+        );
+        assert!(good.coordinates(1.0, 1.0).is_err());
+        assert!(good.coordinates(f64::NAN, 1.0).is_err());
+        let tiny = AxisGrading {
+            fine_size: 1e-12,
+            uniform_length: 1.0,
+            growth: 1.0,
+        };
+        assert!(matches!(
+            tiny.coordinates(0.0, 1.0),
+            Err(GenerateError::TooLarge { .. })
+        ));
     }
 
     #[test]

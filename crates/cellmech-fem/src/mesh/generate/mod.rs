@@ -3,6 +3,8 @@
 //!
 //! - [`box_mesh`]: a structured brick of hex8 elements with face node sets;
 //!   [`perturb_interior_nodes`] distorts its interior for patch tests.
+//! - [`graded_box_mesh`]: the same from node coordinates per axis (a tensor-product mesh
+//!   graded as [`AxisGrading`] says: fine at one end, growing geometrically).
 //! - [`sphere_mesh`]: a ball (optionally with a concentric inner ball) meshed as a central
 //!   cube surrounded by six radially extruded, equi-angular cube-face patches.
 //! - [`quality`]: Jacobians, scaled Jacobian, edge ratio, volume, boundary faces.
@@ -12,7 +14,7 @@ pub mod quality;
 mod random;
 mod sphere;
 
-pub use box_mesh::{box_mesh, perturb_interior_nodes};
+pub use box_mesh::{box_mesh, graded_box_mesh, perturb_interior_nodes, AxisGrading};
 pub use quality::{boundary_faces, hex8_quality, MeshQuality};
 pub use random::SplitMix64;
 pub use sphere::{sphere_mesh, SphereMeshSpec};
@@ -27,6 +29,14 @@ pub enum GenerateError {
     #[error("expected {parameter} to be a positive finite number; found {found}")]
     NotPositive {
         /// Name of the parameter, e.g. `size[0]` or `radius`.
+        parameter: String,
+        /// The value given.
+        found: f64,
+    },
+    /// A length that may be zero is negative or not finite.
+    #[error("expected {parameter} to be a finite number ≥ 0; found {found}")]
+    Negative {
+        /// Name of the parameter.
         parameter: String,
         /// The value given.
         found: f64,
@@ -81,6 +91,22 @@ pub enum GenerateError {
         nodes: f64,
         /// The limit ([`MAX_GENERATED_NODES`]).
         max: usize,
+    },
+    /// Coordinates along an axis are not strictly increasing.
+    #[error("expected strictly increasing coordinates; {parameter} = {found} follows {previous}")]
+    NotIncreasing {
+        /// The offending entry, e.g. `xs[3]`.
+        parameter: String,
+        /// The entry before it.
+        previous: f64,
+        /// The value given.
+        found: f64,
+    },
+    /// A grading's growth ratio is below 1 or not finite.
+    #[error("expected a grading growth ratio ≥ 1 (1 is uniform); found {found}")]
+    GrowthOutOfRange {
+        /// The value given.
+        found: f64,
     },
     /// The perturbation amplitude is outside `[0, 0.5)`.
     #[error("expected amplitude_fraction in [0, 0.5); found {found}")]

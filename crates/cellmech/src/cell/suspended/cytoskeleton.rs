@@ -198,7 +198,7 @@ pub(crate) fn segment_distance_to_origin(a: V3, b: V3) -> f64 {
 }
 
 /// Which nucleus-surface nodes may anchor an IF.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum IfAnchorRule {
     /// The node nearest to the tangent point (the IF may graze the nucleus by a small
     /// depth, reported as `max_if_nucleus_penetration`).

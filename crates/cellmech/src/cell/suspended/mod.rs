@@ -145,6 +145,28 @@ fn tension_only_law(
     ))
 }
 
+/// Adds node sets `microtubule_interior` (every MT node but the centrosome and the FA) and
+/// `microtubule_anchors` (every second interior node counted from the FA: the FA is a mesh
+/// node, so the node next to it stays free and no two nodes held by the continuum are
+/// neighbours on a chain; the node next to the centrosome is left out too, so that a tied
+/// centrosome has a free neighbour, see [`EmbeddedNodes`]). `chains` run from the
+/// centrosome to the FA.
+pub(crate) fn insert_microtubule_node_sets(mesh: &mut Mesh, chains: &[Vec<usize>]) {
+    let interior: Vec<usize> = chains
+        .iter()
+        .flat_map(|c| c[1..c.len().saturating_sub(1)].iter().copied())
+        .collect();
+    mesh.insert_node_set("microtubule_interior", interior);
+    let anchors: Vec<usize> = chains
+        .iter()
+        .flat_map(|c| {
+            let n = c.len() - 1;
+            (2..n).filter(move |k| (n - k) % 2 == 0).map(move |k| c[k])
+        })
+        .collect();
+    mesh.insert_node_set("microtubule_anchors", anchors);
+}
+
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -154,23 +176,7 @@ pub fn suspended_cell_parts(
     let geometry = SuspendedCellGeometry::build(params)?;
     let mut mesh = geometry.mesh.clone();
     let chains = geometry.append_microtubule_nodes(&mut mesh);
-    let interior: Vec<usize> = chains
-        .iter()
-        .flat_map(|c| c[1..c.len().saturating_sub(1)].iter().copied())
-        .collect();
-    mesh.insert_node_set("microtubule_interior", interior);
-    // Every second interior node counted from the FA (the FA is a mesh node, so the node
-    // next to it stays free): no two nodes held by the continuum are neighbours on a chain.
-    // The node next to the centrosome is left out too, so that a tied centrosome has a
-    // free neighbour (see [`EmbeddedNodes`]).
-    let anchors: Vec<usize> = chains
-        .iter()
-        .flat_map(|c| {
-            let n = c.len() - 1;
-            (2..n).filter(move |k| (n - k) % 2 == 0).map(move |k| c[k])
-        })
-        .collect();
-    mesh.insert_node_set("microtubule_anchors", anchors);
+    insert_microtubule_node_sets(&mut mesh, &chains);
     let m = materials;
     let mut assignments = Vec::new();
     for (name, g, nu) in [
@@ -547,12 +553,14 @@ impl SuspendedCell {
                     axis: 0,
                 }],
                 embedded: self.coupling.embeddings(),
+                hanging: Vec::new(),
             },
             description,
             surface_set: "surface".into(),
             prestress,
             rotation_hold,
             step_control: self.step_control(),
+            site: None,
         })
     }
 }

@@ -47,50 +47,343 @@ const POISSON: Bounds = Bounds::new(-1.0, false, 0.5, false);
 const SPEC: &str = "spec";
 const CHOICE: &str = "choice";
 
+// Parameters the adherent cell declares the same way.
+/// `cytoplasm.shear_modulus` (shared by the cell models).
+pub(crate) const CYTOPLASM_SHEAR_MODULUS: ParamDef = p(
+    "cytoplasm.shear_modulus",
+    K::Quantity(Pressure),
+    D::Number(0.17),
+    POS,
+    "cytoplasm shear modulus G (neo-Hookean)",
+    "spec (E = 0.5 kPa)",
+);
+/// `cytoplasm.poisson_ratio` (shared by the cell models).
+pub(crate) const CYTOPLASM_POISSON_RATIO: ParamDef = p(
+    "cytoplasm.poisson_ratio",
+    K::Number,
+    D::Number(0.49),
+    POISSON,
+    "cytoplasm Poisson's ratio (compressibility)",
+    "spec (a parameter, as the spec asks)",
+);
+/// `nucleus.shear_modulus` (shared by the cell models).
+pub(crate) const NUCLEUS_SHEAR_MODULUS: ParamDef = p(
+    "nucleus.shear_modulus",
+    K::Quantity(Pressure),
+    D::Number(1.7),
+    POS,
+    "nucleus shear modulus G",
+    "spec (E = 5 kPa)",
+);
+/// `nucleus.poisson_ratio` (shared by the cell models).
+pub(crate) const NUCLEUS_POISSON_RATIO: ParamDef = p(
+    "nucleus.poisson_ratio",
+    K::Number,
+    D::Number(0.49),
+    POISSON,
+    "nucleus Poisson's ratio",
+    SPEC,
+);
+/// `microtubules.youngs_modulus` (shared by the cell models).
+pub(crate) const MICROTUBULES_YOUNGS_MODULUS: ParamDef = p(
+    "microtubules.youngs_modulus",
+    K::Quantity(Pressure),
+    D::Number(1.2e6),
+    POS,
+    "microtubule Young's modulus",
+    "spec (EA = 317 nN, EI = 0.018 nN·µm²)",
+);
+/// `microtubules.outer_diameter` (shared by the cell models).
+pub(crate) const MICROTUBULES_OUTER_DIAMETER: ParamDef = p(
+    "microtubules.outer_diameter",
+    K::Quantity(Length),
+    D::Number(0.025),
+    POS,
+    "microtubule outer diameter (hollow)",
+    SPEC,
+);
+/// `microtubules.inner_diameter` (shared by the cell models).
+pub(crate) const MICROTUBULES_INNER_DIAMETER: ParamDef = p(
+    "microtubules.inner_diameter",
+    K::Quantity(Length),
+    D::Number(0.017),
+    POS,
+    "microtubule inner diameter",
+    SPEC,
+);
+/// `microtubules.poisson_ratio` (shared by the cell models).
+pub(crate) const MICROTUBULES_POISSON_RATIO: ParamDef = p(
+    "microtubules.poisson_ratio",
+    K::Number,
+    D::Number(0.3),
+    POISSON,
+    "Poisson's ratio of the MT section (its shear modulus)",
+    CHOICE,
+);
+/// `microtubules.elements` (shared by the cell models).
+pub(crate) const MICROTUBULES_ELEMENTS: ParamDef = p(
+    "microtubules.elements",
+    K::Count,
+    D::Count(8),
+    Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true),
+    "beam elements per MT",
+    "choice (\"several\")",
+);
+/// `microtubules.bow_min` (shared by the cell models).
+pub(crate) const MICROTUBULES_BOW_MIN: ParamDef = p(
+    "microtubules.bow_min",
+    K::Quantity(Dimensionless),
+    D::Number(0.05),
+    Bounds::new(0.0, true, MAX_MT_BOW, true),
+    "smallest sideways bow at mid-length, fraction of the chord",
+    "choice (\"varying curvature\")",
+);
+/// `microtubules.bow_max` (shared by the cell models).
+pub(crate) const MICROTUBULES_BOW_MAX: ParamDef = p(
+    "microtubules.bow_max",
+    K::Quantity(Dimensionless),
+    D::Number(0.20),
+    Bounds::new(0.0, true, MAX_MT_BOW, true),
+    "largest bow, fraction of the chord",
+    CHOICE,
+);
+/// `microtubules.clearance_margin` (shared by the cell models).
+pub(crate) const MICROTUBULES_CLEARANCE_MARGIN: ParamDef = p(
+    "microtubules.clearance_margin",
+    K::Quantity(Length),
+    D::Number(0.25),
+    NONNEG,
+    "smallest distance of an MT from the nucleus surface",
+    "choice (\"never through the nucleus\")",
+);
+/// `microtubules.coupling` (shared by the cell models).
+pub(crate) const MICROTUBULES_COUPLING: ParamDef = p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")");
+/// `microtubules.embedded_nodes` (shared by the cell models).
+pub(crate) const MICROTUBULES_EMBEDDED_NODES: ParamDef = p("microtubules.embedded_nodes", K::Choice(&["alternate", "all"]), D::Word("alternate"), ANY, "with `coupling = \"embedded\"`: which interior MT nodes follow the continuum: every second one counted from the FA (no two held nodes adjacent: each span between them is two elements that bend like a free MT segment) or all (each element is a straight column between held nodes that buckles at its own Euler load, 0.03 nN: Newton fails in the prestress)", "choice ([embedded cell](embedded-elements.md#the-embedded-cell))");
+/// `microtubules.centrosome` (shared by the cell models).
+pub(crate) const MICROTUBULES_CENTROSOME: ParamDef = p(
+    "microtubules.centrosome",
+    K::Choice(&["free", "tied"]),
+    D::Word("free"),
+    ANY,
+    "centrosome node: free, or tied to the cytoplasm where it sits",
+    "choice (spec: \"The hybrid model idea\")",
+);
+/// `solver.stabilization` (shared by the cell models).
+pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)");
+/// `solver.iteration` (shared by the cell models).
+pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)");
+/// `intermediate.youngs_modulus` (shared by the cell models).
+pub(crate) const INTERMEDIATE_YOUNGS_MODULUS: ParamDef = p(
+    "intermediate.youngs_modulus",
+    K::Quantity(Pressure),
+    D::Number(7.6e3),
+    POS,
+    "intermediate filament Young's modulus",
+    "spec (EA = 0.60 nN)",
+);
+/// `intermediate.diameter` (shared by the cell models).
+pub(crate) const INTERMEDIATE_DIAMETER: ParamDef = p(
+    "intermediate.diameter",
+    K::Quantity(Length),
+    D::Number(0.010),
+    POS,
+    "intermediate filament diameter",
+    SPEC,
+);
+/// `intermediate.slack` (shared by the cell models).
+pub(crate) const INTERMEDIATE_SLACK: ParamDef = p(
+    "intermediate.slack",
+    K::Quantity(Dimensionless),
+    D::Number(0.20),
+    NONNEG,
+    "slack: no force below (1 + slack) × the initial length",
+    SPEC,
+);
+/// `intermediate.per_fa` (shared by the cell models).
+pub(crate) const INTERMEDIATE_PER_FA: ParamDef = p(
+    "intermediate.per_fa",
+    K::Count,
+    D::Count(2),
+    Bounds::new(1.0, true, MAX_IFS_PER_FA as f64, true),
+    "IFs per FA",
+    "spec (\"at least two\")",
+);
+/// `intermediate.phase_deg` (shared by the cell models).
+pub(crate) const INTERMEDIATE_PHASE_DEG: ParamDef = p(
+    "intermediate.phase_deg",
+    K::Number,
+    D::Number(0.0),
+    ANY,
+    "angle (degrees) of the first IF on the FA's tangent circle",
+    CHOICE,
+);
+/// `intermediate.anchor` (shared by the cell models).
+pub(crate) const INTERMEDIATE_ANCHOR: ParamDef = p(
+    "intermediate.anchor",
+    K::Choice(&["nearest", "nearest-visible"]),
+    D::Word("nearest"),
+    ANY,
+    "which nucleus node anchors an IF: nearest to the tangent point, or nearest visible",
+    "spec (\"nearest to that circle\")",
+);
+
 /// Every parameter of the suspended cell.
 pub const SUSPENDED_CELL: ParamTable = ParamTable {
     name: "suspended-cell",
     section: "cell",
     params: &[
-        p("cell_diameter", K::Quantity(Length), D::Number(32.264), POS, "cell diameter D", "spec"),
-        p("nucleus_diameter", K::Quantity(Length), D::Number(12.9), POS, "nucleus diameter (concentric)", "spec (the comparable published model)"),
-        p("seed", K::Seed, D::Seed(2024), ANY, "seed of every random choice (MT bows, orientation search)", CHOICE),
-        p("resolution", K::Choice(&["default", "fine"]), D::Word("default"), ANY, "mesh: 2816 hex8 (core 8 divisions, 3 + 3 layers) or 14 504 (`fine`)", "choice ([geometry](suspended-cell-geometry.md))"),
-        p("core_divisions", K::Count, D::Absent("from `resolution`"), MESH_COUNT, "elements along the central cube's edge (even; the CI tests use 4, 2, 2: 448 hex8)", CHOICE),
-        p("shell_layers", K::Count, D::Absent("from `resolution`"), MESH_COUNT, "radial element layers inside the nucleus surface", CHOICE),
-        p("outer_layers", K::Count, D::Absent("from `resolution`"), MESH_COUNT, "radial element layers of cytoplasm", CHOICE),
-        p("fa_orientation", K::Choice(&["symmetric", "optimized"]), D::Word("symmetric"), ANY, "FA pattern: on the ±x, ±y, ±z poles, or rotated to fit the mesh", "choice ([geometry](suspended-cell-geometry.md))"),
-        p("orientation_trials", K::Count, D::Count(2000), Bounds::new(0.0, true, MAX_ORIENTATION_TRIALS as f64, true), "random rotations tried by `fa_orientation = \"optimized\"`", CHOICE),
-        p("cytoplasm.shear_modulus", K::Quantity(Pressure), D::Number(0.17), POS, "cytoplasm shear modulus G (neo-Hookean)", "spec (E = 0.5 kPa)"),
-        p("cytoplasm.poisson_ratio", K::Number, D::Number(0.49), POISSON, "cytoplasm Poisson's ratio (compressibility)", "spec (a parameter, as the spec asks)"),
-        p("nucleus.shear_modulus", K::Quantity(Pressure), D::Number(1.7), POS, "nucleus shear modulus G", "spec (E = 5 kPa)"),
-        p("nucleus.poisson_ratio", K::Number, D::Number(0.49), POISSON, "nucleus Poisson's ratio", SPEC),
-        p("membrane.youngs_modulus", K::Quantity(Pressure), D::Number(1000.0), POS, "cell membrane (CM) Young's modulus (incompressible, G = E/3)", "spec (CM)"),
-        p("membrane.thickness", K::Quantity(Length), D::Number(0.01), POS, "cell membrane thickness", SPEC),
-        p("actin.youngs_modulus", K::Quantity(Pressure), D::Number(2.6e6), POS, "actin filament Young's modulus", "spec (EA = 100 nN)"),
-        p("actin.diameter", K::Quantity(Length), D::Number(0.007), POS, "actin filament diameter", SPEC),
-        p("actin.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin prestrain (tension-only trusses)", SPEC),
-        p("microtubules.youngs_modulus", K::Quantity(Pressure), D::Number(1.2e6), POS, "microtubule Young's modulus", "spec (EA = 317 nN, EI = 0.018 nN·µm²)"),
-        p("microtubules.outer_diameter", K::Quantity(Length), D::Number(0.025), POS, "microtubule outer diameter (hollow)", SPEC),
-        p("microtubules.inner_diameter", K::Quantity(Length), D::Number(0.017), POS, "microtubule inner diameter", SPEC),
-        p("microtubules.poisson_ratio", K::Number, D::Number(0.3), POISSON, "Poisson's ratio of the MT section (its shear modulus)", CHOICE),
-        p("microtubules.elements", K::Count, D::Count(8), Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true), "beam elements per MT", "choice (\"several\")"),
-        p("microtubules.bow_min", K::Quantity(Dimensionless), D::Number(0.05), Bounds::new(0.0, true, MAX_MT_BOW, true), "smallest sideways bow at mid-length, fraction of the chord", "choice (\"varying curvature\")"),
-        p("microtubules.bow_max", K::Quantity(Dimensionless), D::Number(0.20), Bounds::new(0.0, true, MAX_MT_BOW, true), "largest bow, fraction of the chord", CHOICE),
-        p("microtubules.clearance_margin", K::Quantity(Length), D::Number(0.25), NONNEG, "smallest distance of an MT from the nucleus surface", "choice (\"never through the nucleus\")"),
-        p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.75), POS, "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)", "choice (\"near the nucleus\")"),
-        p("microtubules.centrosome_direction", K::Vector3, D::Vector3([1.0, 1.0, 1.0]), ANY, "direction of the centrosome from the cell centre", CHOICE),
-        p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")"),
-        p("microtubules.embedded_nodes", K::Choice(&["alternate", "all"]), D::Word("alternate"), ANY, "with `coupling = \"embedded\"`: which interior MT nodes follow the continuum: every second one counted from the FA (no two held nodes adjacent: each span between them is two elements that bend like a free MT segment) or all (each element is a straight column between held nodes that buckles at its own Euler load, 0.03 nN: Newton fails in the prestress)", "choice ([embedded cell](embedded-elements.md#the-embedded-cell))"),
-        p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice (spec: \"The hybrid model idea\")"),
-        p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)"),
-        p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)"),
-        p("intermediate.youngs_modulus", K::Quantity(Pressure), D::Number(7.6e3), POS, "intermediate filament Young's modulus", "spec (EA = 0.60 nN)"),
-        p("intermediate.diameter", K::Quantity(Length), D::Number(0.010), POS, "intermediate filament diameter", SPEC),
-        p("intermediate.slack", K::Quantity(Dimensionless), D::Number(0.20), NONNEG, "slack: no force below (1 + slack) × the initial length", SPEC),
-        p("intermediate.per_fa", K::Count, D::Count(2), Bounds::new(1.0, true, MAX_IFS_PER_FA as f64, true), "IFs per FA", "spec (\"at least two\")"),
-        p("intermediate.phase_deg", K::Number, D::Number(0.0), ANY, "angle (degrees) of the first IF on the FA's tangent circle", CHOICE),
-        p("intermediate.anchor", K::Choice(&["nearest", "nearest-visible"]), D::Word("nearest"), ANY, "which nucleus node anchors an IF: nearest to the tangent point, or nearest visible", "spec (\"nearest to that circle\")"),
+        p(
+            "cell_diameter",
+            K::Quantity(Length),
+            D::Number(32.264),
+            POS,
+            "cell diameter D",
+            "spec",
+        ),
+        p(
+            "nucleus_diameter",
+            K::Quantity(Length),
+            D::Number(12.9),
+            POS,
+            "nucleus diameter (concentric)",
+            "spec (the comparable published model)",
+        ),
+        p(
+            "seed",
+            K::Seed,
+            D::Seed(2024),
+            ANY,
+            "seed of every random choice (MT bows, orientation search)",
+            CHOICE,
+        ),
+        p(
+            "resolution",
+            K::Choice(&["default", "fine"]),
+            D::Word("default"),
+            ANY,
+            "mesh: 2816 hex8 (core 8 divisions, 3 + 3 layers) or 14 504 (`fine`)",
+            "choice ([geometry](suspended-cell-geometry.md))",
+        ),
+        p(
+            "core_divisions",
+            K::Count,
+            D::Absent("from `resolution`"),
+            MESH_COUNT,
+            "elements along the central cube's edge (even; the CI tests use 4, 2, 2: 448 hex8)",
+            CHOICE,
+        ),
+        p(
+            "shell_layers",
+            K::Count,
+            D::Absent("from `resolution`"),
+            MESH_COUNT,
+            "radial element layers inside the nucleus surface",
+            CHOICE,
+        ),
+        p(
+            "outer_layers",
+            K::Count,
+            D::Absent("from `resolution`"),
+            MESH_COUNT,
+            "radial element layers of cytoplasm",
+            CHOICE,
+        ),
+        p(
+            "fa_orientation",
+            K::Choice(&["symmetric", "optimized"]),
+            D::Word("symmetric"),
+            ANY,
+            "FA pattern: on the ±x, ±y, ±z poles, or rotated to fit the mesh",
+            "choice ([geometry](suspended-cell-geometry.md))",
+        ),
+        p(
+            "orientation_trials",
+            K::Count,
+            D::Count(2000),
+            Bounds::new(0.0, true, MAX_ORIENTATION_TRIALS as f64, true),
+            "random rotations tried by `fa_orientation = \"optimized\"`",
+            CHOICE,
+        ),
+        CYTOPLASM_SHEAR_MODULUS,
+        CYTOPLASM_POISSON_RATIO,
+        NUCLEUS_SHEAR_MODULUS,
+        NUCLEUS_POISSON_RATIO,
+        p(
+            "membrane.youngs_modulus",
+            K::Quantity(Pressure),
+            D::Number(1000.0),
+            POS,
+            "cell membrane (CM) Young's modulus (incompressible, G = E/3)",
+            "spec (CM)",
+        ),
+        p(
+            "membrane.thickness",
+            K::Quantity(Length),
+            D::Number(0.01),
+            POS,
+            "cell membrane thickness",
+            SPEC,
+        ),
+        p(
+            "actin.youngs_modulus",
+            K::Quantity(Pressure),
+            D::Number(2.6e6),
+            POS,
+            "actin filament Young's modulus",
+            "spec (EA = 100 nN)",
+        ),
+        p(
+            "actin.diameter",
+            K::Quantity(Length),
+            D::Number(0.007),
+            POS,
+            "actin filament diameter",
+            SPEC,
+        ),
+        p(
+            "actin.prestrain",
+            K::Quantity(Dimensionless),
+            D::Number(0.24),
+            Bounds::new(-1.0, false, f64::INFINITY, false),
+            "actin prestrain (tension-only trusses)",
+            SPEC,
+        ),
+        MICROTUBULES_YOUNGS_MODULUS,
+        MICROTUBULES_OUTER_DIAMETER,
+        MICROTUBULES_INNER_DIAMETER,
+        MICROTUBULES_POISSON_RATIO,
+        MICROTUBULES_ELEMENTS,
+        MICROTUBULES_BOW_MIN,
+        MICROTUBULES_BOW_MAX,
+        MICROTUBULES_CLEARANCE_MARGIN,
+        p(
+            "microtubules.centrosome_gap",
+            K::Quantity(Length),
+            D::Number(0.75),
+            POS,
+            "distance of the centrosome from the nucleus surface (> 0: outside the nucleus)",
+            "choice (\"near the nucleus\")",
+        ),
+        p(
+            "microtubules.centrosome_direction",
+            K::Vector3,
+            D::Vector3([1.0, 1.0, 1.0]),
+            ANY,
+            "direction of the centrosome from the cell centre",
+            CHOICE,
+        ),
+        MICROTUBULES_COUPLING,
+        MICROTUBULES_EMBEDDED_NODES,
+        MICROTUBULES_CENTROSOME,
+        SOLVER_STABILIZATION,
+        SOLVER_ITERATION,
+        INTERMEDIATE_YOUNGS_MODULUS,
+        INTERMEDIATE_DIAMETER,
+        INTERMEDIATE_SLACK,
+        INTERMEDIATE_PER_FA,
+        INTERMEDIATE_PHASE_DEG,
+        INTERMEDIATE_ANCHOR,
     ],
 };
 

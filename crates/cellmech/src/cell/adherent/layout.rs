@@ -1,0 +1,686 @@
+//! The adherent cell's layout: mesh (with local refinement at an indentation site), focal
+//! adhesions (FAs), actin bundles (ABs), microtubules (MTs) and intermediate filaments
+//! (IFs). Lengths in µm, the substrate is `z = 0`, the cell's long axis is `x`.
+//!
+//! * **FAs and ABs.** `bundles` ABs run along the long axis at the height `bundle_height`:
+//!   AB `k` is a straight tension-only truss between two FAs at `(∓x_k, y_k, h)` on the dome,
+//!   with `y_k` spread evenly over `bundle_spread` of the dome's half width at that height
+//!   (`y_k = s b_h (2k + 1 − n)/n`, `k = 0..n`), so the apex lies between the two middle
+//!   ABs. Each FA's node is the dome node nearest its site, moved onto it (in the reference
+//!   mesh, so refinement keeps it; the distance moved is reported).
+//! * **MTs** (one per FA): the chord from the centrosome (above the nucleus) to the FA,
+//!   bowed sideways in the horizontal plane by `bow × chord × sin(πt)` with `bow` uniform in
+//!   `[bow_min, bow_max]` and a random side (seeded): curved, with varying curvature; every
+//!   point is checked to lie inside the cell and clear of the nucleus.
+//! * **IFs** (`per_fa` per FA) are anchored as in the suspended cell
+//!   (`cell::suspended::cytoskeleton`), in the frame where the ellipsoidal nucleus is the
+//!   unit sphere: `T(x) = (x − c_n) / E_n` (componentwise). Tangency is affine-invariant,
+//!   so an IF tangent to the unit sphere in that frame is tangent to the nucleus. The MT
+//!   clearance is measured in that frame too: times `min(E_n)` it bounds the physical
+//!   clearance from below.
+//! * **Indentation site.** The apex (top node), the receptor (an FA, by default the one
+//!   farthest from the nucleus centre, ties to the larger x) or the dome point above given
+//!   `(x, y)`. The mesh is refined there (see [`LocalRefinement`]).
+
+use cellmech_fem::mesh::Mesh;
+
+use super::geometry::{
+    map_reference_mesh, mesh_report, AdherentMeshReport, AdherentMeshResolution, AdherentShape,
+};
+use crate::cell::suspended::cytoskeleton::{
+    anchor_intermediate_filaments, IfAnchorRule, MicrotubulePath,
+};
+use crate::cell::vec3::{distance, norm, V3};
+
+/// Where an AFM tip indents the adherent cell.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IndentationSite {
+    /// The top of the dome, over the nucleus, between the FAs.
+    Apex,
+    /// An FA away from the nucleus ([`AdherentCellParams::receptor`]).
+    Receptor,
+    /// The dome point above `(x, y)` (µm).
+    Point {
+        /// x (along the cell's length).
+        x: f64,
+        /// y (across).
+        y: f64,
+    },
+}
+
+/// Local refinement at the indentation site: every hex8 is split (octree, 2:1 balanced,
+/// hanging nodes tied) until its longest edge is at most
+/// `max(element_size, grading × (distance − fine_radius))`, the distance measured from
+/// the site to the element's nearest corner.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LocalRefinement {
+    /// Element size wanted within `fine_radius` of the site (µm).
+    pub element_size: f64,
+    /// Radius of the region of finest elements (µm): the material the tip touches.
+    pub fine_radius: f64,
+    /// Growth of the element size with the distance beyond `fine_radius`.
+    pub grading: f64,
+    /// Most levels of splitting.
+    pub max_levels: u8,
+}
+
+impl LocalRefinement {
+    /// Further levels of splitting wanted for an element with physical corners `x` (its
+    /// longest edge over the wanted size, rounded up in powers of two), for a site.
+    pub fn extra_levels(&self, x: &[V3; 8], site: V3) -> u8 {
+        let longest = super::geometry::HEX_EDGES
+            .iter()
+            .map(|&(i, j)| distance(x[i], x[j]))
+            .fold(0.0, f64::max);
+        let centroid: V3 = std::array::from_fn(|k| x.iter().map(|p| p[k]).sum::<f64>() / 8.0);
+        let radius = x.iter().map(|p| distance(*p, centroid)).fold(0.0, f64::max);
+        let d = (distance(centroid, site) - radius).max(0.0);
+        let target = self.element_size.max(self.grading * (d - self.fine_radius));
+        if longest <= target {
+            return 0;
+        }
+        (longest / target).log2().ceil().min(16.0) as u8
+    }
+}
+
+/// Parameters of the adherent-cell layout (µm).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AdherentCellParams {
+    /// Cell and nucleus shape.
+    pub shape: AdherentShape,
+    /// Base mesh.
+    pub mesh: AdherentMeshResolution,
+    /// Refinement at the indentation site.
+    pub refinement: LocalRefinement,
+    /// Number of ABs (≥ 1).
+    pub bundles: usize,
+    /// Height of the ABs and their FAs above the substrate.
+    pub bundle_height: f64,
+    /// Fraction of the dome's half width at `bundle_height` the ABs are spread over.
+    pub bundle_spread: f64,
+    /// The receptor FA (index into the FAs; `None`: the one farthest from the nucleus).
+    pub receptor: Option<usize>,
+    /// Radius of an FA's plaque: the dome nodes within it move with the FA node (0: the FA
+    /// is one node).
+    pub fa_radius: f64,
+    /// Beam elements per MT.
+    pub mt_elements: usize,
+    /// Smallest MT bow (fraction of the chord).
+    pub mt_bow_min: f64,
+    /// Largest MT bow.
+    pub mt_bow_max: f64,
+    /// Smallest distance of an MT from the nucleus surface.
+    pub mt_clearance_margin: f64,
+    /// Distance of the centrosome from the nucleus surface.
+    pub centrosome_gap: f64,
+    /// Direction of the centrosome from the nucleus centre.
+    pub centrosome_direction: V3,
+    /// IFs per FA.
+    pub ifs_per_fa: usize,
+    /// Angle (rad) of the first IF on its FA's tangent circle.
+    pub if_phase: f64,
+    /// Which nucleus node anchors an IF.
+    pub if_anchor_rule: IfAnchorRule,
+    /// Seed of every random choice (MT bows).
+    pub seed: u64,
+}
+
+/// Measured quality of the layout.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AdherentLayoutReport {
+    /// Mesh quality after mapping and refinement.
+    pub mesh: AdherentMeshReport,
+    /// Hex8 elements before refinement.
+    pub base_elements: usize,
+    /// Hanging nodes of the local refinement.
+    pub hanging_nodes: usize,
+    /// Dome nodes tied to an FA node by its plaque (`fa_radius`).
+    pub fa_plaque_nodes: usize,
+    /// Largest distance an FA's node was moved along the dome to reach its site (µm).
+    pub max_fa_snap: f64,
+    /// AB lengths (µm): shortest, longest.
+    pub bundle_length_range: (f64, f64),
+    /// Smallest MT clearance from the nucleus, in the unit-nucleus frame (times the
+    /// smallest nucleus semi-axis: a lower bound in µm).
+    pub min_mt_clearance_scaled: f64,
+    /// Largest IF anchor error in the unit-nucleus frame.
+    pub max_if_anchor_error_scaled: f64,
+    /// The indentation site (µm) and the dome's outward normal there.
+    pub site: Option<(V3, V3)>,
+}
+
+/// Why the adherent cell's layout could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{parameter}: {message}")]
+pub struct AdherentLayoutError {
+    /// The parameter (or part) at fault.
+    pub parameter: &'static str,
+    /// What was expected and what was found.
+    pub message: String,
+}
+
+fn fail(parameter: &'static str, message: impl Into<String>) -> AdherentLayoutError {
+    AdherentLayoutError {
+        parameter,
+        message: message.into(),
+    }
+}
+
+/// The adherent cell's geometry: mesh and routing.
+#[derive(Debug, Clone)]
+pub struct AdherentCellGeometry {
+    /// Hex8 mesh (blocks `nucleus`, `cytoplasm`); node sets `surface`, `dome`, `bottom`,
+    /// `apex`, `nucleus_surface`, `focal_adhesions`, `fa_<k>`, `if_anchors`.
+    pub mesh: Mesh,
+    /// Ties of the hanging nodes of the local refinement and of the FA plaques (a plaque
+    /// node follows its FA node with weight 1).
+    pub hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    /// Outer boundary faces (outward), dome and base.
+    pub boundary_faces: Vec<[usize; 4]>,
+    /// FA nodes: AB `k` has FAs `2k` (x < 0) and `2k + 1` (x > 0).
+    pub fa_nodes: Vec<usize>,
+    /// ABs as `[FA node, FA node]`.
+    pub bundles: Vec<[usize; 2]>,
+    /// Centrosome position (appended as a node by [`Self::append_microtubule_nodes`]).
+    pub centrosome: V3,
+    /// One MT per FA.
+    pub microtubules: Vec<MicrotubulePath>,
+    /// IFs as `[FA node, nucleus-surface node]`.
+    pub intermediate_filaments: Vec<[usize; 2]>,
+    /// Index of the receptor FA.
+    pub receptor: usize,
+    /// Measured quality.
+    pub report: AdherentLayoutReport,
+}
+
+impl AdherentCellParams {
+    /// Checks the parameters that the builders do not check themselves.
+    pub fn validate(&self) -> Result<(), AdherentLayoutError> {
+        self.shape.validate().map_err(|m| fail("shape", m))?;
+        let [_, _, c] = self.shape.semi_axes;
+        if self.bundles == 0 {
+            return Err(fail(
+                "bundles.count",
+                "expected at least 1 actin bundle; found 0",
+            ));
+        }
+        if !(self.bundle_height > 0.0 && self.bundle_height < c) {
+            return Err(fail(
+                "bundles.height",
+                format!(
+                    "expected a height above the substrate below the cell height {c} µm; found \
+                     {} µm",
+                    self.bundle_height
+                ),
+            ));
+        }
+        if !(self.bundle_spread > 0.0 && self.bundle_spread < 1.0) {
+            return Err(fail(
+                "bundles.spread",
+                format!(
+                    "expected a fraction in (0, 1) of the dome's half width; found {}",
+                    self.bundle_spread
+                ),
+            ));
+        }
+        let r = self.refinement;
+        if !(r.element_size > 0.0 && r.fine_radius >= 0.0 && r.grading > 0.0) {
+            return Err(fail(
+                "refinement",
+                format!(
+                    "expected element_size > 0, fine_radius ≥ 0, grading > 0; found {}, {}, {}",
+                    r.element_size, r.fine_radius, r.grading
+                ),
+            ));
+        }
+        let d = self.centrosome_direction;
+        if !(d.iter().all(|x| x.is_finite()) && norm(d) > 0.0) {
+            return Err(fail(
+                "microtubules.centrosome_direction",
+                format!("expected a non-zero vector; found {d:?}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The FA sites `(∓x_k, y_k, h)` on the dome, AB by AB.
+    pub fn fa_sites(&self) -> Vec<V3> {
+        let [a, b, c] = self.shape.semi_axes;
+        let h = self.bundle_height;
+        let f = (1.0 - (h / c).powi(2)).sqrt();
+        let (a_h, b_h) = (a * f, b * f);
+        let n = self.bundles as f64;
+        (0..self.bundles)
+            .flat_map(|k| {
+                let y = self.bundle_spread * b_h * (2.0 * k as f64 + 1.0 - n) / n;
+                let x = a_h * (1.0 - (y / b_h).powi(2)).sqrt();
+                [[-x, y, h], [x, y, h]]
+            })
+            .collect()
+    }
+
+    /// The centrosome: on the ray from the nucleus centre along `centrosome_direction`,
+    /// `centrosome_gap` beyond the nucleus surface.
+    pub fn centrosome(&self) -> V3 {
+        let d = crate::cell::vec3::normalize(self.centrosome_direction);
+        let e = self.shape.nucleus_semi_axes;
+        let s =
+            1.0 / ((d[0] / e[0]).powi(2) + (d[1] / e[1]).powi(2) + (d[2] / e[2]).powi(2)).sqrt();
+        let c = self.shape.nucleus_centre();
+        std::array::from_fn(|k| c[k] + d[k] * (s + self.centrosome_gap))
+    }
+
+    /// To the frame where the nucleus is the unit sphere at the origin.
+    fn to_unit_nucleus(&self, x: V3) -> V3 {
+        let e = self.shape.nucleus_semi_axes;
+        let c = self.shape.nucleus_centre();
+        std::array::from_fn(|k| (x[k] - c[k]) / e[k])
+    }
+}
+
+/// Turns the reference mesh's radial line of direction `from` (unit) towards `to` (unit):
+/// the surface node moves onto `to`, the nodes below it by a share that falls linearly to
+/// zero at the nucleus surface, so the shear of moving an FA onto its site is spread over
+/// the cytoplasm's layers instead of the outermost one.
+fn turn_radial_line(reference: &mut Mesh, from: V3, to: V3) {
+    let r_ref = super::geometry::REFERENCE_NUCLEUS_RADIUS;
+    for x in reference.nodes.iter_mut() {
+        let rho = norm(*x);
+        if rho <= r_ref + 1e-12 {
+            continue;
+        }
+        let n = [x[0] / rho, x[1] / rho, x[2] / rho];
+        if distance(n, from) > 1e-9 {
+            continue;
+        }
+        let w = ((rho - r_ref) / (1.0 - r_ref)).min(1.0);
+        let d: V3 = std::array::from_fn(|k| from[k] + w * (to[k] - from[k]));
+        *x = crate::cell::vec3::scale(crate::cell::vec3::normalize(d), rho);
+    }
+}
+
+/// Ties every dome node within `radius` of an FA node (the nearest FA when several) to it,
+/// so that the FA is a rigid plaque rather than one node: a single node cannot carry an
+/// AB's pull where the mesh is refined (a point force on ever smaller elements; the
+/// receptor's prestress stalls at 1 % of the ramp). Hanging-node ties whose masters fall in
+/// a plaque are rewritten onto the FA node (no chains); hanging nodes keep their own ties.
+/// Returns the ties and the number of plaque nodes.
+fn tie_fa_plaques(
+    mesh: &Mesh,
+    hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    fa_nodes: &[usize],
+    radius: f64,
+) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
+    use cellmech_fem::mesh::refine::HangingNode;
+    use std::collections::{BTreeMap, HashSet};
+    if radius <= 0.0 {
+        return (hanging, 0);
+    }
+    let tied: HashSet<usize> = hanging.iter().map(|h| h.node).collect();
+    let fas: HashSet<usize> = fa_nodes.iter().copied().collect();
+    let mut plaque: BTreeMap<usize, usize> = BTreeMap::new();
+    for &n in &mesh.node_sets["dome"] {
+        if fas.contains(&n) || tied.contains(&n) || mesh.nodes[n][2] <= 1e-9 {
+            continue;
+        }
+        let nearest = fa_nodes
+            .iter()
+            .map(|&f| (distance(mesh.nodes[n], mesh.nodes[f]), f))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((d, f)) = nearest {
+            if d <= radius {
+                plaque.insert(n, f);
+            }
+        }
+    }
+    let mut ties: Vec<HangingNode> = hanging
+        .into_iter()
+        .map(|h| {
+            let mut masters: BTreeMap<usize, f64> = BTreeMap::new();
+            for (m, w) in h.masters {
+                *masters.entry(*plaque.get(&m).unwrap_or(&m)).or_insert(0.0) += w;
+            }
+            HangingNode {
+                node: h.node,
+                masters: masters.into_iter().collect(),
+            }
+        })
+        .collect();
+    let count = plaque.len();
+    ties.extend(plaque.into_iter().map(|(node, f)| HangingNode {
+        node,
+        masters: vec![(f, 1.0)],
+    }));
+    (ties, count)
+}
+
+/// Mixed into the seed for the MT bows.
+const MT_STREAM: u64 = 0x4D54_5F41_4448_4552;
+
+/// One MT from the centrosome `c` to the FA at `f`: the chord bowed sideways in the
+/// horizontal plane, `p(t) = c + t (f − c) + bow |f − c| sin(π t) e`, `e` the horizontal unit
+/// vector perpendicular to the chord (x for a vertical chord), sampled at `t = i/m`.
+fn route_microtubule(c: V3, fa_node: usize, f: V3, bow: f64, m: usize) -> MicrotubulePath {
+    let d = crate::cell::vec3::sub(f, c);
+    let h = (d[0] * d[0] + d[1] * d[1]).sqrt();
+    let e = if h > 1e-9 {
+        [-d[1] / h, d[0] / h, 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let chord = norm(d);
+    let points = (0..=m)
+        .map(|i| {
+            let t = i as f64 / m as f64;
+            let s = bow * chord * (std::f64::consts::PI * t).sin();
+            if i == m {
+                f
+            } else {
+                std::array::from_fn(|k| c[k] + t * d[k] + s * e[k])
+            }
+        })
+        .collect();
+    let plane_normal = crate::cell::vec3::normalize(crate::cell::vec3::cross(d, e));
+    MicrotubulePath {
+        fa_node,
+        points,
+        plane_normal,
+        bow,
+    }
+}
+
+/// The node nearest `p` among `nodes`, excluding `taken`, and its distance.
+fn nearest_node(mesh: &Mesh, nodes: &[usize], p: V3, taken: &[usize]) -> Option<(usize, f64)> {
+    nodes
+        .iter()
+        .filter(|n| !taken.contains(n))
+        .map(|&n| (n, distance(mesh.nodes[n], p)))
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+}
+
+impl AdherentCellGeometry {
+    /// Builds the layout, refined at `site` when given.
+    pub fn build(
+        params: &AdherentCellParams,
+        site: Option<IndentationSite>,
+    ) -> Result<Self, AdherentLayoutError> {
+        params.validate()?;
+        let shape = &params.shape;
+        let mut reference = params.mesh.reference_mesh().map_err(|m| fail("mesh", m))?;
+        // Each FA is the reference surface node nearest to its site's reference direction
+        // `(x/a, y/b, z/c)`, moved onto that direction: the FA lands on its site exactly
+        // and the local refinement (done in the reference space) keeps it.
+        let [a, b, c] = shape.semi_axes;
+        let dome_ref: Vec<usize> = reference.node_sets["surface"]
+            .iter()
+            .copied()
+            .filter(|&n| reference.nodes[n][2] > 1e-9)
+            .collect();
+        let mut fa_nodes = Vec::new();
+        let mut max_snap: f64 = 0.0;
+        for p in params.fa_sites() {
+            let direction = [p[0] / a, p[1] / b, p[2] / c];
+            let (n, _) =
+                nearest_node(&reference, &dome_ref, direction, &fa_nodes).ok_or_else(|| {
+                    fail(
+                        "bundles.count",
+                        "more FAs than dome nodes: refine the base mesh",
+                    )
+                })?;
+            max_snap = max_snap.max(distance(shape.map(reference.nodes[n], true), p));
+            let from = reference.nodes[n];
+            turn_radial_line(&mut reference, from, direction);
+            fa_nodes.push(n);
+        }
+        let base = map_reference_mesh(&reference, shape);
+        let base_elements = base.num_elements();
+        let receptor = match params.receptor {
+            Some(k) if k < fa_nodes.len() => k,
+            Some(k) => {
+                return Err(fail(
+                    "receptor",
+                    format!(
+                        "expected an FA index below {} (2 per actin bundle); found {k}",
+                        fa_nodes.len()
+                    ),
+                ))
+            }
+            None => {
+                let c = shape.nucleus_centre();
+                let mut best = 0;
+                for k in 1..fa_nodes.len() {
+                    let (pk, pb) = (base.nodes[fa_nodes[k]], base.nodes[fa_nodes[best]]);
+                    let (dk, db) = (distance(pk, c), distance(pb, c));
+                    if dk > db + 1e-9 || ((dk - db).abs() <= 1e-9 && pk[0] > pb[0]) {
+                        best = k;
+                    }
+                }
+                best
+            }
+        };
+        let site_point = match site {
+            None => None,
+            Some(IndentationSite::Apex) => Some(base.nodes[base.node_sets["apex"][0]]),
+            Some(IndentationSite::Receptor) => Some(base.nodes[fa_nodes[receptor]]),
+            Some(IndentationSite::Point { x, y }) => {
+                let z = shape.dome_height(x, y).ok_or_else(|| {
+                    fail(
+                        "site",
+                        format!(
+                            "expected a point over the cell's footprint (x²/{a}² + y²/{b}² < 1); \
+                             found ({x}, {y}) µm, off the cell",
+                            a = shape.semi_axes[0],
+                            b = shape.semi_axes[1]
+                        ),
+                    )
+                })?;
+                let p = [x, y, z];
+                if shape.dome_normal(p)[2] < 0.5 {
+                    return Err(fail(
+                        "site",
+                        format!(
+                            "expected a point where the dome is less steep than 60° (a vertical \
+                             tip would slide off); found a slope of {:.0}° at ({x}, {y}) µm",
+                            shape.dome_normal(p)[2].acos().to_degrees()
+                        ),
+                    ));
+                }
+                Some(p)
+            }
+        };
+        let (mut mesh, hanging, boundary_faces) = match site_point {
+            Some(s) => {
+                let refinement = params.refinement;
+                let refined = cellmech_fem::mesh::refine::refine_hex8_by_level(
+                    &reference,
+                    |corners, level| {
+                        let x = corners.map(|p| shape.map(p, false));
+                        (level + refinement.extra_levels(&x, s)).min(refinement.max_levels)
+                    },
+                )
+                .map_err(|e| fail("refinement", e.to_string()))?;
+                let mut mesh = map_reference_mesh(&refined.mesh, shape);
+                // The base mesh's nodes keep their indices and positions.
+                debug_assert!(fa_nodes.iter().all(|&n| mesh.nodes[n] == base.nodes[n]));
+                mesh.node_sets.retain(|_, v| !v.is_empty());
+                (mesh, refined.hanging, refined.boundary_faces)
+            }
+            None => {
+                let faces = cellmech_fem::mesh::generate::boundary_faces(&base);
+                (base, Vec::new(), faces)
+            }
+        };
+        let mesh_quality = mesh_report(&mesh, shape);
+        if !(mesh_quality.min_scaled_jacobian > 0.0) {
+            return Err(fail(
+                "mesh",
+                format!(
+                    "the mapped mesh has an inverted element (min scaled Jacobian {:.3}): FAs \
+                     closer than the mesh spacing crowd its elements; raise mesh.core_divisions \
+                     (8 for the default 8 bundles) or lower bundles.count",
+                    mesh_quality.min_scaled_jacobian
+                ),
+            ));
+        }
+        let (hanging, plaque_nodes) = tie_fa_plaques(&mesh, hanging, &fa_nodes, params.fa_radius);
+        // ABs.
+        let bundles: Vec<[usize; 2]> = (0..params.bundles)
+            .map(|k| [fa_nodes[2 * k], fa_nodes[2 * k + 1]])
+            .collect();
+        for (k, &[a, b]) in bundles.iter().enumerate() {
+            let (pa, pb) = (
+                params.to_unit_nucleus(mesh.nodes[a]),
+                params.to_unit_nucleus(mesh.nodes[b]),
+            );
+            if crate::cell::suspended::cytoskeleton::segment_distance_to_origin(pa, pb) <= 1.0 {
+                return Err(fail(
+                    "bundles.height",
+                    format!(
+                        "actin bundle {k} (y = {:.2} µm, height {} µm) passes through the \
+                         nucleus; raise bundles.height or narrow bundles.spread",
+                        mesh.nodes[a][1], params.bundle_height
+                    ),
+                ));
+            }
+        }
+        let lengths: Vec<f64> = bundles
+            .iter()
+            .map(|&[a, b]| distance(mesh.nodes[a], mesh.nodes[b]))
+            .collect();
+        // MTs: the chord from the centrosome to the FA bowed sideways (horizontally).
+        let centrosome = params.centrosome();
+        if shape.level(centrosome) >= 1.0 || centrosome[2] <= 0.0 {
+            return Err(fail(
+                "microtubules.centrosome_gap",
+                format!("the centrosome at {centrosome:?} µm lies outside the cell"),
+            ));
+        }
+        let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ MT_STREAM);
+        let mut microtubules = Vec::with_capacity(fa_nodes.len());
+        let mut min_clearance = f64::INFINITY;
+        for (k, &fa) in fa_nodes.iter().enumerate() {
+            let bow = rng.uniform(params.mt_bow_min, params.mt_bow_max.max(params.mt_bow_min));
+            let side = if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 };
+            let mt = route_microtubule(
+                centrosome,
+                fa,
+                mesh.nodes[fa],
+                side * bow,
+                params.mt_elements,
+            );
+            if let Some(p) = mt.points[1..mt.points.len() - 1]
+                .iter()
+                .find(|p| shape.level(**p) >= 1.0 || p[2] <= 0.0)
+            {
+                return Err(fail(
+                    "microtubules",
+                    format!(
+                        "MT {k} leaves the cell at {p:.2?} µm; lower microtubules.bow_max or \
+                         move the centrosome"
+                    ),
+                ));
+            }
+            let scaled: Vec<V3> = mt
+                .points
+                .iter()
+                .map(|&p| params.to_unit_nucleus(p))
+                .collect();
+            let clearance =
+                crate::cell::suspended::cytoskeleton::polyline_distance_to_origin(&scaled) - 1.0;
+            let min_axis = shape
+                .nucleus_semi_axes
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            if !(clearance * min_axis >= params.mt_clearance_margin) {
+                return Err(fail(
+                    "microtubules",
+                    format!(
+                        "MT {k} passes within {:.3} µm of the nucleus (at least {} µm wanted); \
+                         raise microtubules.centrosome_gap or lower the bow",
+                        clearance * min_axis,
+                        params.mt_clearance_margin
+                    ),
+                ));
+            }
+            min_clearance = min_clearance.min(clearance);
+            microtubules.push(mt);
+        }
+        // IFs in the unit-nucleus frame.
+        let inner = mesh.node_sets["nucleus_surface"].clone();
+        let scaled = Mesh {
+            nodes: mesh
+                .nodes
+                .iter()
+                .map(|&x| params.to_unit_nucleus(x))
+                .collect(),
+            ..Mesh::default()
+        };
+        let ifs = anchor_intermediate_filaments(
+            &scaled,
+            &inner,
+            &fa_nodes,
+            1.0,
+            params.ifs_per_fa,
+            params.if_phase,
+            params.if_anchor_rule,
+        )
+        .map_err(|e| fail("intermediate", e.to_string()))?;
+        mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
+        for (k, &n) in fa_nodes.iter().enumerate() {
+            mesh.insert_node_set(format!("fa_{k}"), vec![n]);
+        }
+        mesh.insert_node_set("receptor", vec![fa_nodes[receptor]]);
+        mesh.insert_node_set("if_anchors", ifs.filaments.iter().map(|f| f[1]).collect());
+        let report = AdherentLayoutReport {
+            mesh: mesh_quality,
+            base_elements,
+            hanging_nodes: hanging.len() - plaque_nodes,
+            fa_plaque_nodes: plaque_nodes,
+            max_fa_snap: max_snap,
+            bundle_length_range: lengths
+                .iter()
+                .fold((f64::INFINITY, 0.0), |(lo, hi), &l| (lo.min(l), hi.max(l))),
+            min_mt_clearance_scaled: min_clearance,
+            max_if_anchor_error_scaled: ifs.anchor_errors.iter().cloned().fold(0.0, f64::max),
+            site: site_point.map(|p| (p, shape.dome_normal(p))),
+        };
+        Ok(Self {
+            mesh,
+            hanging,
+            boundary_faces,
+            fa_nodes,
+            bundles,
+            centrosome,
+            microtubules,
+            intermediate_filaments: ifs.filaments,
+            receptor,
+            report,
+        })
+    }
+
+    /// Appends the centrosome and the MTs' interior points as nodes (node sets
+    /// `centrosome`, `microtubule_interior`, `microtubule_anchors`) and returns each MT's
+    /// chain: centrosome, interior nodes, FA node.
+    pub fn append_microtubule_nodes(&self, mesh: &mut Mesh) -> Vec<Vec<usize>> {
+        let centrosome = mesh.nodes.len();
+        mesh.nodes.push(self.centrosome);
+        mesh.insert_node_set("centrosome", vec![centrosome]);
+        let chains: Vec<Vec<usize>> = self
+            .microtubules
+            .iter()
+            .map(|mt| {
+                let mut chain = vec![centrosome];
+                for &p in &mt.points[1..mt.points.len() - 1] {
+                    chain.push(mesh.nodes.len());
+                    mesh.nodes.push(p);
+                }
+                chain.push(mt.fa_node);
+                chain
+            })
+            .collect();
+        crate::cell::suspended::insert_microtubule_node_sets(mesh, &chains);
+        chains
+    }
+}

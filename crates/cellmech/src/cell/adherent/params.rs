@@ -1,0 +1,194 @@
+//! The declared parameters of the adherent cell (`[cell]` with `model = "adherent"`): one
+//! line per parameter, the defaults of [`AdherentCellParams`] and
+//! [`AdherentCellMaterials`]. Sources: `shared/spec/cell-models.md` ("Adherent cell");
+//! "choice" marks a documented modelling or numerical choice (`docs/adherent-cell.md`).
+//! Parameters the suspended cell declares the same way (cytoplasm, nucleus, MTs, IFs,
+//! coupling, solver) are shared with its table.
+
+use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
+use crate::units::Dimension::{Dimensionless, Length, Pressure};
+
+use super::geometry::{AdherentMeshResolution, AdherentShape};
+use super::layout::{AdherentCellParams, LocalRefinement};
+use super::AdherentCellMaterials;
+use crate::cell::suspended::params as shared;
+use crate::cell::suspended::MAX_MT_BOW;
+use crate::cell::suspended::{
+    ActinMaterial, IfAnchorRule, IntermediateMaterial, MicrotubuleMaterial,
+};
+
+const fn p(
+    key: &'static str,
+    kind: K,
+    default: D,
+    bounds: Bounds,
+    doc: &'static str,
+    source: &'static str,
+) -> ParamDef {
+    ParamDef {
+        key,
+        kind,
+        default,
+        bounds,
+        doc,
+        source,
+    }
+}
+
+const POS: Bounds = Bounds::POSITIVE;
+const NONNEG: Bounds = Bounds::NON_NEGATIVE;
+const ANY: Bounds = Bounds::ANY;
+const MESH_COUNT: Bounds = Bounds::new(1.0, true, 64.0, true);
+const SPEC: &str = "spec";
+const CHOICE: &str = "choice";
+
+/// Every parameter of the adherent cell.
+pub const ADHERENT_CELL: ParamTable = ParamTable {
+    name: "adherent-cell",
+    section: "cell",
+    params: &[
+        p("semi_axes", K::QuantityList(Length), D::List(&[19.0, 12.66, 8.0]), POS, "half length, half width and height of the half-ellipsoid", SPEC),
+        p("nucleus.semi_axes", K::QuantityList(Length), D::List(&[2.5, 2.5, 1.5]), POS, "nucleus semi-axes (x, y, height)", SPEC),
+        p("nucleus.height", K::Quantity(Length), D::Number(2.0), POS, "height of the nucleus centre above the substrate (centred in the top view)", SPEC),
+        p("seed", K::Seed, D::Seed(2024), ANY, "seed of every random choice (MT bows)", CHOICE),
+        p("mesh.core_divisions", K::Count, D::Count(8), MESH_COUNT, "elements along the reference cube's edge (even); the base mesh has core³ + 6 core² (shell + outer) hex8", "choice ([adherent cell](adherent-cell.md#mesh))"),
+        p("mesh.shell_layers", K::Count, D::Count(3), MESH_COUNT, "radial layers inside the nucleus surface", CHOICE),
+        p("mesh.outer_layers", K::Count, D::Count(3), MESH_COUNT, "radial layers of cytoplasm from the nucleus to the cell surface", CHOICE),
+        p("refinement.element_size", K::Quantity(Length), D::Number(0.15), POS, "largest element edge wanted at the indentation site (the 200 nm tip's contact radius is 0.45 µm at 0.5 µm depth: 3 faces; the octree halves sizes, so 0.15 and 0.2 give the same 10 712 hex8, 0.1 gives 27 904)", "choice (issue: several element faces across the contact)"),
+        p("refinement.fine_radius", K::Quantity(Length), D::Number(0.6), NONNEG, "radius around the site kept at the finest size", CHOICE),
+        p("refinement.grading", K::Number, D::Number(1.0), POS, "growth of the element size with distance beyond the fine radius (size ≤ grading × distance)", CHOICE),
+        p("refinement.max_levels", K::Count, D::Count(6), Bounds::new(0.0, true, 6.0, true), "most octree levels of splitting at the site", CHOICE),
+        shared::CYTOPLASM_SHEAR_MODULUS,
+        shared::CYTOPLASM_POISSON_RATIO,
+        shared::NUCLEUS_SHEAR_MODULUS,
+        shared::NUCLEUS_POISSON_RATIO,
+        p("cortex.youngs_modulus", K::Quantity(Pressure), D::Number(2.0), POS, "actin cortex (AC) Young's modulus (incompressible membrane, G = E/3)", "spec (AC)"),
+        p("cortex.thickness", K::Quantity(Length), D::Number(0.2), POS, "actin cortex thickness (membrane on the free surface, no bending)", SPEC),
+        p("bundles.count", K::Count, D::Count(8), Bounds::new(1.0, true, 64.0, true), "actin bundles (ABs), each between two FAs, along the long axis", "choice (spec: \"roughly uniformly\")"),
+        p("bundles.height", K::Quantity(Length), D::Number(4.0), POS, "height of the ABs and their FAs above the substrate", "choice ([adherent cell](adherent-cell.md#cytoskeleton))"),
+        p("bundles.spread", K::Quantity(Dimensionless), D::Number(0.8), Bounds::new(0.0, false, 1.0, false), "fraction of the dome's half width at that height the ABs span", CHOICE),
+        p("bundles.youngs_modulus", K::Quantity(Pressure), D::Number(340.0), POS, "actin bundle Young's modulus", "spec (EA = 16.7 nN)"),
+        p("bundles.diameter", K::Quantity(Length), D::Number(0.25), POS, "actin bundle diameter", SPEC),
+        p("bundles.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin bundle prestrain (tension-only trusses)", SPEC),
+        p("bundles.fa_radius", K::Quantity(Length), D::Number(0.5), NONNEG, "radius of an FA plaque: the dome nodes within it move with the FA node (0: one node)", "choice (spec suspended cell: \"an FA may be a small patch of surface nodes tied together\")"),
+        p("receptor", K::Count, D::Absent("the FA farthest from the nucleus centre"), Bounds::new(0.0, true, 127.0, true), "index of the FA indented by `site = \"receptor\"` (FA 2k and 2k + 1 end AB k)", "spec (\"an FA away from the nucleus\")"),
+        shared::MICROTUBULES_YOUNGS_MODULUS,
+        shared::MICROTUBULES_OUTER_DIAMETER,
+        shared::MICROTUBULES_INNER_DIAMETER,
+        shared::MICROTUBULES_POISSON_RATIO,
+        shared::MICROTUBULES_ELEMENTS,
+        p("microtubules.bow_min", K::Quantity(Dimensionless), D::Number(0.25), Bounds::new(0.0, true, MAX_MT_BOW, true), "smallest sideways bow at mid-length, fraction of the chord", "choice (bows of 5-20 % make the prestress take 92 Newton iterations instead of 31: docs/adherent-cell.md)"),
+        p("microtubules.bow_max", K::Quantity(Dimensionless), D::Number(0.45), Bounds::new(0.0, true, MAX_MT_BOW, true), "largest bow, fraction of the chord", CHOICE),
+        shared::MICROTUBULES_CLEARANCE_MARGIN,
+        p("microtubules.centrosome_gap", K::Quantity(Length), D::Number(0.5), POS, "distance of the centrosome from the nucleus surface", "choice (\"near the nucleus\")"),
+        p("microtubules.centrosome_direction", K::Vector3, D::Vector3([0.0, 0.0, 1.0]), ANY, "direction of the centrosome from the nucleus centre", CHOICE),
+        p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice ([adherent cell](adherent-cell.md#coupling): embedded MTs stall the prestress)"),
+        shared::MICROTUBULES_EMBEDDED_NODES,
+        p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice ([adherent cell](adherent-cell.md#coupling))"),
+        shared::SOLVER_STABILIZATION,
+        shared::SOLVER_ITERATION,
+        shared::INTERMEDIATE_YOUNGS_MODULUS,
+        shared::INTERMEDIATE_DIAMETER,
+        shared::INTERMEDIATE_SLACK,
+        shared::INTERMEDIATE_PER_FA,
+        shared::INTERMEDIATE_PHASE_DEG,
+        shared::INTERMEDIATE_ANCHOR,
+    ],
+};
+
+/// Three values of a list parameter (the reader checks the unit; the count is checked here
+/// by the builder through [`AdherentShape::validate`]).
+fn triple(v: &ParamValues, key: &str) -> [f64; 3] {
+    let l = v.list(key);
+    [0, 1, 2].map(|i| l.get(i).copied().unwrap_or(f64::NAN))
+}
+
+/// Geometry and materials from resolved values of [`ADHERENT_CELL`].
+pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterials) {
+    let params = AdherentCellParams {
+        shape: AdherentShape {
+            semi_axes: triple(v, "semi_axes"),
+            nucleus_semi_axes: triple(v, "nucleus.semi_axes"),
+            nucleus_height: v.number("nucleus.height"),
+        },
+        mesh: AdherentMeshResolution {
+            core_divisions: v.count("mesh.core_divisions"),
+            shell_layers: v.count("mesh.shell_layers"),
+            outer_layers: v.count("mesh.outer_layers"),
+        },
+        refinement: LocalRefinement {
+            element_size: v.number("refinement.element_size"),
+            fine_radius: v.number("refinement.fine_radius"),
+            grading: v.number("refinement.grading"),
+            max_levels: v.count("refinement.max_levels") as u8,
+        },
+        bundles: v.count("bundles.count"),
+        bundle_height: v.number("bundles.height"),
+        bundle_spread: v.number("bundles.spread"),
+        receptor: v.optional_count("receptor"),
+        fa_radius: v.number("bundles.fa_radius"),
+        mt_elements: v.count("microtubules.elements"),
+        mt_bow_min: v.number("microtubules.bow_min"),
+        mt_bow_max: v.number("microtubules.bow_max"),
+        mt_clearance_margin: v.number("microtubules.clearance_margin"),
+        centrosome_gap: v.number("microtubules.centrosome_gap"),
+        centrosome_direction: v.vector3("microtubules.centrosome_direction"),
+        ifs_per_fa: v.count("intermediate.per_fa"),
+        if_phase: v.number("intermediate.phase_deg").to_radians(),
+        if_anchor_rule: match v.word("intermediate.anchor") {
+            "nearest-visible" => IfAnchorRule::NearestVisible,
+            _ => IfAnchorRule::Nearest,
+        },
+        seed: v.seed("seed"),
+    };
+    let materials = AdherentCellMaterials {
+        cytoplasm_shear_modulus: v.number("cytoplasm.shear_modulus"),
+        cytoplasm_poisson_ratio: v.number("cytoplasm.poisson_ratio"),
+        nucleus_shear_modulus: v.number("nucleus.shear_modulus"),
+        nucleus_poisson_ratio: v.number("nucleus.poisson_ratio"),
+        cortex_shear_modulus: v.number("cortex.youngs_modulus") / 3.0,
+        cortex_thickness: v.number("cortex.thickness"),
+        bundle: ActinMaterial {
+            youngs_modulus: v.number("bundles.youngs_modulus"),
+            diameter: v.number("bundles.diameter"),
+            prestrain: v.number("bundles.prestrain"),
+        },
+        microtubule: MicrotubuleMaterial {
+            youngs_modulus: v.number("microtubules.youngs_modulus"),
+            outer_diameter: v.number("microtubules.outer_diameter"),
+            inner_diameter: v.number("microtubules.inner_diameter"),
+            poisson_ratio: v.number("microtubules.poisson_ratio"),
+        },
+        intermediate: IntermediateMaterial {
+            youngs_modulus: v.number("intermediate.youngs_modulus"),
+            diameter: v.number("intermediate.diameter"),
+            slack: v.number("intermediate.slack"),
+        },
+    };
+    (params, materials)
+}
+
+/// The defaults of the table.
+pub fn defaults() -> (AdherentCellParams, AdherentCellMaterials) {
+    from_values(&ParamValues::defaults(&ADHERENT_CELL))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_spec_values() {
+        let (p, m) = defaults();
+        assert_eq!(p.shape.semi_axes, [19.0, 12.66, 8.0]);
+        assert_eq!(p.shape.nucleus_semi_axes, [2.5, 2.5, 1.5]);
+        assert_eq!(p.shape.nucleus_height, 2.0);
+        assert!((m.cortex_shear_modulus - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(m.cortex_thickness, 0.2);
+        // EA(AB) = 16.7 nN.
+        let ea = m.bundle.youngs_modulus * std::f64::consts::PI * 0.25 * m.bundle.diameter.powi(2);
+        assert!((ea - 16.69).abs() < 0.01, "EA {ea}");
+        assert_eq!(m.bundle.prestrain, 0.24);
+        assert_eq!(m.cytoplasm_shear_modulus, 0.17);
+    }
+}

@@ -1,0 +1,411 @@
+//! AFM indentation of the adherent cell: prestress → approach (the tip comes down from
+//! above the site until it feels `contact_force`: first contact) → indent to each depth in
+//! turn → optionally retract to the contact position. A rigid paraboloid tip (or a sphere,
+//! a colloidal probe) moves along −z; frictionless augmented-Lagrangian contact with the
+//! dome nodes around the site; the base stays clamped throughout.
+
+use cellmech_fem::contact::{ContactKind, ToolShape};
+use cellmech_fem::solve::StepControl;
+
+use super::apparent_modulus::FitSettings;
+use super::{ProtocolError, ProtocolPlan, ToolHandle};
+use crate::cell::adherent::IndentationSite;
+use crate::cell::BuiltCell;
+use crate::model::tools::{default_penalty, default_tolerance, ForceTarget, ToolMotion, ToolSpec};
+use crate::model::StepSpec;
+use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
+use crate::units::Dimension::{Force, Length};
+use cellmech_fem::verify::contact::Indenter;
+
+/// The parameters of `kind = "afm-indentation"`.
+pub const AFM_INDENTATION: ParamTable = ParamTable {
+    name: "afm-indentation",
+    section: "protocol",
+    params: &[
+        ParamDef {
+            key: "site",
+            kind: K::Choice(&["apex", "receptor", "point"]),
+            default: D::Word("apex"),
+            bounds: Bounds::ANY,
+            doc: "where the tip indents: the apex (over the nucleus, between FAs), the receptor FA, or the dome point above `point`",
+            source: "spec",
+        },
+        ParamDef {
+            key: "point",
+            kind: K::QuantityList(Length),
+            default: D::Absent("with site = \"point\": [x, y]"),
+            bounds: Bounds::ANY,
+            doc: "with `site = \"point\"`: the (x, y) the tip comes down on",
+            source: "choice",
+        },
+        ParamDef {
+            key: "tip",
+            kind: K::Choice(&["paraboloid", "sphere"]),
+            default: D::Word("paraboloid"),
+            bounds: Bounds::ANY,
+            doc: "tip shape: a paraboloid (sharp AFM tip) or a sphere (colloidal probe)",
+            source: "spec (paraboloid); choice (sphere)",
+        },
+        ParamDef {
+            key: "tip_radius",
+            kind: K::Quantity(Length),
+            default: D::Number(0.2),
+            bounds: Bounds::POSITIVE,
+            doc: "tip radius of curvature (sphere: its radius)",
+            source: "spec (200 nm)",
+        },
+        ParamDef {
+            key: "depths",
+            kind: K::QuantityList(Length),
+            default: D::List(&[0.5, 1.0, 1.5, 2.0, 2.5]),
+            bounds: Bounds::POSITIVE,
+            doc: "indentations from first contact at which to report, increasing",
+            source: "spec (up to 2.5 µm)",
+        },
+        ParamDef {
+            key: "retract",
+            kind: K::Choice(&["no", "yes"]),
+            default: D::Word("no"),
+            bounds: Bounds::ANY,
+            doc: "after the deepest indentation, move the tip back to first contact (the retract curve)",
+            source: "choice",
+        },
+        ParamDef {
+            key: "contact_force",
+            kind: K::Quantity(Force),
+            default: D::Number(0.005),
+            bounds: Bounds::POSITIVE,
+            doc: "force on the tip that counts as first contact in the approach",
+            source: "choice (5 pN, an AFM contact-point threshold)",
+        },
+        ParamDef {
+            key: "approach_gap",
+            kind: K::Quantity(Length),
+            default: D::Number(1.0),
+            bounds: Bounds::POSITIVE,
+            doc: "start height of the tip above the undeformed site",
+            source: "choice",
+        },
+        ParamDef {
+            key: "max_increment",
+            kind: K::Number,
+            default: D::Number(0.2),
+            bounds: Bounds::new(0.0, false, 1.0, true),
+            doc: "largest increment of the indentation steps, fraction of the step (0.2 of a 0.5 µm step: a curve point every 100 nm)",
+            source: "choice",
+        },
+        ParamDef {
+            key: "fit_range",
+            kind: K::QuantityList(Length),
+            default: D::List(&[0.0, 1.0]),
+            bounds: Bounds::NON_NEGATIVE,
+            doc: "depths [from, to] of the apparent-modulus fit (Hertz/Sneddon)",
+            source: "choice (issue: \"a Hertz fit over a chosen depth range\")",
+        },
+        ParamDef {
+            key: "fit_model",
+            kind: K::Choice(&["tip", "paraboloid", "sphere", "cone"]),
+            default: D::Word("tip"),
+            bounds: Bounds::ANY,
+            doc: "contact model of the fit: the tip's own shape, a paraboloid (Hertz), a sphere (Sneddon) of the tip radius, or a cone (Sneddon) of half-angle `fit_cone_half_angle_deg`",
+            source: "choice",
+        },
+        ParamDef {
+            key: "fit_cone_half_angle_deg",
+            kind: K::Number,
+            default: D::Number(20.0),
+            bounds: Bounds::new(0.0, false, 90.0, false),
+            doc: "half-angle of the cone model (degrees)",
+            source: "choice (a common pyramidal tip)",
+        },
+        ParamDef {
+            key: "fit_poisson_ratio",
+            kind: K::Number,
+            default: D::Number(0.5),
+            bounds: Bounds::new(-1.0, false, 0.5, true),
+            doc: "Poisson's ratio assumed by the fit (AFM users assume incompressible)",
+            source: "choice",
+        },
+    ],
+};
+
+/// The indenter's shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TipShape {
+    /// Paraboloid of revolution (Hertz).
+    Paraboloid,
+    /// Sphere (colloidal probe).
+    Sphere,
+}
+
+/// AFM indentation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AfmIndentation {
+    /// Where the tip indents.
+    pub site: IndentationSite,
+    /// Tip shape.
+    pub tip: TipShape,
+    /// Tip radius (µm).
+    pub tip_radius: f64,
+    /// Depths from first contact, increasing (µm).
+    pub depths: Vec<f64>,
+    /// Retract to first contact after the deepest indentation.
+    pub retract: bool,
+    /// Force that counts as contact (nN).
+    pub contact_force: f64,
+    /// Start height of the tip above the undeformed site (µm).
+    pub approach_gap: f64,
+    /// Largest increment of the loading steps.
+    pub max_increment: f64,
+    /// How the apparent modulus is fitted to the curve.
+    pub fit: FitSettings,
+}
+
+impl Default for AfmIndentation {
+    /// The defaults declared in [`AFM_INDENTATION`].
+    fn default() -> Self {
+        Self::from_values(&ParamValues::defaults(&AFM_INDENTATION))
+    }
+}
+
+/// Contact candidates: dome nodes within this many tip-to-depth contact radii
+/// `√(2 R d_max)` of the site, and at least [`MIN_CONTACT_RADIUS`].
+const CONTACT_RADII: f64 = 3.0;
+/// Smallest radius of the contact-candidate region (µm).
+const MIN_CONTACT_RADIUS: f64 = 2.0;
+
+impl AfmIndentation {
+    /// Settings from resolved values of [`AFM_INDENTATION`].
+    pub fn from_values(v: &ParamValues) -> Self {
+        let site = match v.word("site") {
+            "receptor" => IndentationSite::Receptor,
+            "point" => {
+                let p = if v.given("point") {
+                    v.list("point")
+                } else {
+                    &[]
+                };
+                IndentationSite::Point {
+                    x: p.first().copied().unwrap_or(f64::NAN),
+                    y: p.get(1).copied().unwrap_or(f64::NAN),
+                }
+            }
+            _ => IndentationSite::Apex,
+        };
+        AfmIndentation {
+            site,
+            tip: match v.word("tip") {
+                "sphere" => TipShape::Sphere,
+                _ => TipShape::Paraboloid,
+            },
+            tip_radius: v.number("tip_radius"),
+            depths: v.list("depths").to_vec(),
+            retract: v.word("retract") == "yes",
+            contact_force: v.number("contact_force"),
+            approach_gap: v.number("approach_gap"),
+            max_increment: v.number("max_increment"),
+            fit: {
+                let r = v.number("tip_radius");
+                let tip = match (v.word("fit_model"), v.word("tip")) {
+                    ("sphere", _) | ("tip", "sphere") => Indenter::Sphere { radius: r },
+                    ("cone", _) => Indenter::Cone {
+                        half_angle: v.number("fit_cone_half_angle_deg").to_radians(),
+                    },
+                    _ => Indenter::Paraboloid { radius: r },
+                };
+                let range = v.list("fit_range");
+                let mut fit = FitSettings::new(
+                    tip,
+                    [
+                        range.first().copied().unwrap_or(f64::NAN),
+                        range.get(1).copied().unwrap_or(f64::NAN),
+                    ],
+                );
+                fit.poisson_ratio = v.number("fit_poisson_ratio");
+                fit
+            },
+        }
+    }
+
+    /// The site's name for outputs.
+    pub fn site_name(&self) -> &'static str {
+        match self.site {
+            IndentationSite::Apex => "apex",
+            IndentationSite::Receptor => "receptor",
+            IndentationSite::Point { .. } => "point",
+        }
+    }
+
+    /// Checks the settings that do not depend on the cell.
+    fn check(&self) -> Result<(), ProtocolError> {
+        if let IndentationSite::Point { x, y } = self.site {
+            if !(x.is_finite() && y.is_finite()) {
+                return Err(ProtocolError {
+                    key: "point",
+                    message: "expected point = [\"x um\", \"y um\"] with site = \"point\"; found \
+                              none or fewer than two lengths"
+                        .into(),
+                });
+            }
+        }
+        let [lo, hi] = self.fit.depth_range_um;
+        if !(lo >= 0.0 && hi > lo) {
+            return Err(ProtocolError {
+                key: "fit_range",
+                message: format!(
+                    "expected two depths [from, to] with 0 ≤ from < to, e.g. [\"0 um\", \"1 um\"]; \
+                     found [{lo}, {hi}] µm"
+                ),
+            });
+        }
+        let list = &self.depths;
+        if list.is_empty()
+            || list.iter().any(|d| !(*d > 0.0))
+            || list.windows(2).any(|w| w[1] <= w[0])
+        {
+            return Err(ProtocolError {
+                key: "depths",
+                message: format!(
+                    "expected increasing positive depths, e.g. [\"0.5 um\", \"1 um\", \"2.5 um\"]; \
+                     found {list:?} µm"
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Places the tip and writes the steps after the prestress.
+    pub(super) fn apply(&self, cell: &mut BuiltCell) -> Result<ProtocolPlan, ProtocolError> {
+        self.check()?;
+        let Some((site, _normal)) = cell.site else {
+            return Err(ProtocolError {
+                key: "site",
+                message: format!(
+                    "afm-indentation needs a cell refined at an indentation site (the adherent \
+                     cell, `[cell] model = \"adherent\"`); found the {} cell",
+                    cell.description.model
+                ),
+            });
+        };
+        let r = self.tip_radius;
+        let (lo, hi) = cell.model.mesh.bounding_box();
+        let height = hi[2] - lo[2];
+        let width = (hi[0] - lo[0]).min(hi[1] - lo[1]);
+        if r >= 0.5 * width || r >= height {
+            return Err(ProtocolError {
+                key: "tip_radius",
+                message: format!(
+                    "expected a tip smaller than the cell (height {height:.2} µm, width \
+                     {width:.2} µm); found a radius of {r} µm"
+                ),
+            });
+        }
+        let deepest = *self.depths.last().expect("checked non-empty");
+        if deepest >= site[2] {
+            return Err(ProtocolError {
+                key: "depths",
+                message: format!(
+                    "expected indentations shallower than the cell at the site ({:.2} µm above \
+                     the substrate); found {deepest} µm",
+                    site[2]
+                ),
+            });
+        }
+        // Contact candidates around the site.
+        let reach = (CONTACT_RADII * (2.0 * r * deepest).sqrt()).max(MIN_CONTACT_RADIUS);
+        let mesh = &mut cell.model.mesh;
+        let dome = mesh
+            .node_sets
+            .get(&cell.surface_set)
+            .cloned()
+            .unwrap_or_default();
+        let candidates: Vec<usize> = dome
+            .into_iter()
+            .filter(|&n| crate::cell::vec3::distance(mesh.nodes[n], site) <= reach)
+            .collect();
+        mesh.insert_node_set("tip_contact", candidates.clone());
+        let apex = [site[0], site[1], site[2] + self.approach_gap];
+        let axis = [0.0, 0.0, -1.0];
+        let shape = match self.tip {
+            TipShape::Paraboloid => ToolShape::Paraboloid {
+                apex,
+                axis,
+                tip_radius: r,
+            },
+            TipShape::Sphere => ToolShape::Sphere {
+                center: [apex[0], apex[1], apex[2] + r],
+                radius: r,
+            },
+        };
+        let tip = ToolHandle {
+            index: cell.model.tools.len(),
+            name: "tip".into(),
+        };
+        cell.model.tools.push(ToolSpec {
+            name: tip.name.clone(),
+            shape,
+            kind: ContactKind::Frictionless,
+            node_set: "tip_contact".into(),
+            penalty: default_penalty(&cell.model.materials, &cell.model.mesh, &candidates),
+            // The penetration tolerance also resolves the tip: 1 % of its radius at most.
+            tolerance: default_tolerance(&cell.model.mesh).min(0.01 * r),
+        });
+        let loading = StepControl {
+            initial_increment: self.max_increment.min(0.1),
+            max_increment: self.max_increment,
+            ..cell.step_control
+        };
+        let hold = cell.rotation_hold.clone();
+        let step = |name: String, dz: f64, until: Option<f64>| StepSpec {
+            name,
+            control: loading,
+            fixes: hold.clone(),
+            displacements: Vec::new(),
+            forces: Vec::new(),
+            tools: vec![ToolMotion {
+                tool: "tip".into(),
+                movement: [0.0, 0.0, dz],
+                until_force: until.map(|value| ForceTarget {
+                    value,
+                    tolerance: 0.05 * value,
+                }),
+            }],
+        };
+        let steps = &mut cell.model.steps;
+        let contact_step = steps.len();
+        // Down by the gap and as deep again: the surface may have risen or sunk in the
+        // prestress; the step ends at first contact.
+        steps.push(step(
+            "approach".into(),
+            -(2.0 * self.approach_gap + deepest),
+            Some(self.contact_force),
+        ));
+        let mut depths = Vec::new();
+        let mut previous = 0.0;
+        for &d in &self.depths {
+            depths.push((steps.len(), d));
+            steps.push(step(
+                format!("indent-{}nm", (1000.0 * d).round()),
+                -(d - previous),
+                None,
+            ));
+            previous = d;
+        }
+        let retract_step = self.retract.then(|| {
+            steps.push(step("retract".into(), previous, None));
+            steps.len() - 1
+        });
+        Ok(ProtocolPlan::AfmIndentation {
+            tip,
+            contact_step,
+            depths,
+            retract_step,
+            site: self.site_name().into(),
+            site_point: site,
+            tip_shape: self.tip,
+            tip_radius: r,
+            fit: self.fit,
+        })
+    }
+}
