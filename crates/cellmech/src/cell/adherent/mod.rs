@@ -11,7 +11,6 @@
 
 use std::collections::HashSet;
 
-use cellmech_fem::element::beam::BeamSection;
 use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::{AxialLaw, NeoHookean};
 
@@ -229,28 +228,13 @@ impl AdherentCell {
             ),
             enabled: on.bundles,
         });
-        let t = m.microtubule;
-        let section = BeamSection::hollow_circular(
-            t.youngs_modulus,
-            t.poisson_ratio,
-            t.outer_diameter,
-            t.inner_diameter,
-        )
-        .map_err(component("microtubule"))?;
-        structures.filaments.push(FilamentSpec {
-            name: family::MICROTUBULE.into(),
-            family: family::MICROTUBULE.into(),
-            filaments: Filament::consecutive(
-                &chains.iter().map(|c| c.len() - 1).collect::<Vec<_>>(),
-                Some(FilamentEnd::End),
-            ),
-            pairs: chains
-                .iter()
-                .flat_map(|c| c.windows(2).map(|w| [w[0], w[1]]))
-                .collect(),
-            element: FilamentElement::Beam(section),
-            enabled: on.microtubules,
-        });
+        structures
+            .filaments
+            .push(crate::cell::suspended::microtubule_filaments(
+                &m.microtubule,
+                &chains,
+                on.microtubules,
+            )?);
         let i = m.intermediate;
         structures.filaments.push(FilamentSpec {
             name: family::INTERMEDIATE.into(),

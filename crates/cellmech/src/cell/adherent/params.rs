@@ -5,35 +5,17 @@
 //! Parameters the suspended cell declares the same way (cytoplasm, nucleus, MTs, IFs,
 //! coupling, solver) are shared with its table.
 
-use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
+use crate::param::{Bounds, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Dimensionless, Length, Pressure};
 
 use super::geometry::{AdherentMeshResolution, AdherentShape};
 use super::layout::{AdherentCellParams, LocalRefinement};
 use super::AdherentCellMaterials;
-use crate::cell::suspended::params as shared;
+use crate::cell::suspended::params::{self as shared, p};
 use crate::cell::suspended::MAX_MT_BOW;
 use crate::cell::suspended::{
     ActinMaterial, IfAnchorRule, IntermediateMaterial, MicrotubuleMaterial,
 };
-
-const fn p(
-    key: &'static str,
-    kind: K,
-    default: D,
-    bounds: Bounds,
-    doc: &'static str,
-    source: &'static str,
-) -> ParamDef {
-    ParamDef {
-        key,
-        kind,
-        default,
-        bounds,
-        doc,
-        source,
-    }
-}
 
 const POS: Bounds = Bounds::POSITIVE;
 const NONNEG: Bounds = Bounds::NON_NEGATIVE;

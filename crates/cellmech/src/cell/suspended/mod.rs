@@ -167,6 +167,36 @@ pub(crate) fn insert_microtubule_node_sets(mesh: &mut Mesh, chains: &[Vec<usize>
     mesh.insert_node_set("microtubule_anchors", anchors);
 }
 
+/// The MT family: one hollow-section beam chain per MT, `chains` running from the
+/// centrosome to the FA (the FA is each filament's anchored end).
+pub(crate) fn microtubule_filaments(
+    t: &MicrotubuleMaterial,
+    chains: &[Vec<usize>],
+    enabled: bool,
+) -> Result<FilamentSpec, CellModelError> {
+    let section = BeamSection::hollow_circular(
+        t.youngs_modulus,
+        t.poisson_ratio,
+        t.outer_diameter,
+        t.inner_diameter,
+    )
+    .map_err(component("microtubule"))?;
+    Ok(FilamentSpec {
+        name: family::MICROTUBULE.into(),
+        family: family::MICROTUBULE.into(),
+        filaments: Filament::consecutive(
+            &chains.iter().map(|c| c.len() - 1).collect::<Vec<_>>(),
+            Some(FilamentEnd::End),
+        ),
+        pairs: chains
+            .iter()
+            .flat_map(|c| c.windows(2).map(|w| [w[0], w[1]]))
+            .collect(),
+        element: FilamentElement::Beam(section),
+        enabled,
+    })
+}
+
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -217,28 +247,11 @@ pub fn suspended_cell_parts(
         element: FilamentElement::Truss(actin),
         enabled: components.actin,
     });
-    let t = m.microtubule;
-    let section = BeamSection::hollow_circular(
-        t.youngs_modulus,
-        t.poisson_ratio,
-        t.outer_diameter,
-        t.inner_diameter,
-    )
-    .map_err(component("microtubule"))?;
-    structures.filaments.push(FilamentSpec {
-        name: family::MICROTUBULE.into(),
-        family: family::MICROTUBULE.into(),
-        filaments: Filament::consecutive(
-            &chains.iter().map(|c| c.len() - 1).collect::<Vec<_>>(),
-            Some(FilamentEnd::End),
-        ),
-        pairs: chains
-            .iter()
-            .flat_map(|c| c.windows(2).map(|w| [w[0], w[1]]))
-            .collect(),
-        element: FilamentElement::Beam(section),
-        enabled: components.microtubules,
-    });
+    structures.filaments.push(microtubule_filaments(
+        &m.microtubule,
+        &chains,
+        components.microtubules,
+    )?);
     let i = m.intermediate;
     let law = tension_only_law("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack);
     structures.filaments.push(FilamentSpec {

@@ -19,7 +19,8 @@ use super::materials::{
     ActinMaterial, IntermediateMaterial, MicrotubuleMaterial, SuspendedCellMaterials,
 };
 
-const fn p(
+/// A parameter definition in one line (the tables' rows).
+pub(crate) const fn p(
     key: &'static str,
     kind: K,
     default: D,
