@@ -18,7 +18,7 @@ use crate::output::OutputWriter;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TestPoint {
     /// Tension: elongation from the reference state (µm); compression: plate travel from
-    /// contact (µm).
+    /// contact (µm); AFM: tip travel from first contact, the indentation (µm).
     pub displacement_um: f64,
     /// Compression: travel / cell diameter (the deformation of the diameter); tension:
     /// elongation / cell diameter.
@@ -27,7 +27,7 @@ pub struct TestPoint {
     /// compression positive when pushing) (nN).
     pub force_nn: f64,
     /// Tension: force / (π D²/4) / (elongation / D) (kPa); compression: the same with the
-    /// deformation.
+    /// deformation; AFM: NaN (see the apparent modulus instead).
     pub normalised_stiffness_kpa: f64,
     /// Largest first principal logarithmic strain in the nucleus, measured from the
     /// unstressed mesh (includes the prestress).
@@ -42,7 +42,7 @@ pub struct TestPoint {
 /// What a protocol run showed.
 #[derive(Debug, Clone, Serialize)]
 pub struct ProtocolResults {
-    /// `micropipette-tension` or `microplate-compression`.
+    /// `micropipette-tension`, `microplate-compression` or `afm-indentation`.
     pub kind: String,
     /// Largest support reaction during the prestress step (nN): ~0 for a free cell.
     pub prestress_support_reaction_max_nn: Option<f64>,
@@ -169,7 +169,12 @@ pub fn write_protocol_results(
             displacement_um: displacement,
             strain: e,
             force_nn: force,
-            normalised_stiffness_kpa: if e > 0.0 { force / area / e } else { f64::NAN },
+            // Per unit of the cell's cross-section: meaningless under a tip (NaN there).
+            normalised_stiffness_kpa: if e > 0.0 && kind != "afm-indentation" {
+                force / area / e
+            } else {
+                f64::NAN
+            },
             nucleus_max_principal_log_strain: strain[r],
             nucleus_max_principal_log_strain_from_reference: if r == reference {
                 0.0
