@@ -324,7 +324,7 @@ fn hertz_force_fit_and_mesh_convergence_at_shallow_depth() {
 }
 
 #[test]
-#[ignore = "accurate version, ~13 min on 2 shared cores: cargo test --release -p cellmech --test hertz_indentation -- --ignored"]
+#[ignore = "accurate version, 9-13 min on 2 shared cores: cargo test --release -p cellmech --test hertz_indentation -- --ignored"]
 fn hertz_deviation_to_half_the_tip_radius_on_a_finer_grading() {
     let block = Block {
         grading: AxisGrading {
