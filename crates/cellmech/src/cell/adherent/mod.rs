@@ -11,9 +11,6 @@
 
 use std::collections::HashSet;
 
-use cellmech_fem::element::hex8::Hex8Formulation;
-use cellmech_fem::material::{AxialLaw, NeoHookean};
-
 pub mod geometry;
 pub mod layout;
 pub mod params;
@@ -22,11 +19,11 @@ pub use geometry::{AdherentMeshResolution, AdherentShape};
 pub use layout::{AdherentCellGeometry, AdherentCellParams, IndentationSite, LocalRefinement};
 
 use crate::cell::suspended::{
-    ActinMaterial, CellModelError, Coupling, IntermediateMaterial, MicrotubuleMaterial,
+    component, tension_only_law, ActinMaterial, CellModelError, Coupling, IntermediateMaterial,
+    MicrotubuleMaterial,
 };
 use crate::model::filaments::{Filament, FilamentEnd};
 use crate::model::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
-use crate::model::MaterialAssignment;
 
 /// Family names of the adherent cell's components (curve-column prefixes and
 /// `[families.<name>]` keys).
@@ -115,33 +112,6 @@ impl Default for AdherentCell {
     }
 }
 
-fn component<E: std::fmt::Display>(component: &'static str) -> impl Fn(E) -> CellModelError {
-    move |e| CellModelError::Component {
-        component,
-        message: e.to_string(),
-    }
-}
-
-fn tension_only(
-    name: &'static str,
-    youngs_modulus: f64,
-    diameter: f64,
-) -> Result<AxialLaw, CellModelError> {
-    if !(youngs_modulus > 0.0 && diameter > 0.0) {
-        return Err(CellModelError::Component {
-            component: name,
-            message: format!(
-                "expected a positive Young's modulus and diameter; found {youngs_modulus} kPa, \
-                 {diameter} µm"
-            ),
-        });
-    }
-    Ok(AxialLaw::tension_only(
-        youngs_modulus,
-        AxialLaw::solid_circle_area(diameter),
-    ))
-}
-
 impl AdherentCell {
     /// The cell from resolved values of [`params::ADHERENT_CELL`].
     pub fn from_values(values: &crate::param::ParamValues) -> Self {
@@ -177,21 +147,10 @@ impl AdherentCell {
         let chains = geometry.append_microtubule_nodes(&mut mesh);
         let m = &self.materials;
         let on = &self.components;
-        let mut materials = Vec::new();
-        for (name, g, nu) in [
-            (
-                "cytoplasm",
-                m.cytoplasm_shear_modulus,
-                m.cytoplasm_poisson_ratio,
-            ),
-            ("nucleus", m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
-        ] {
-            materials.push(MaterialAssignment {
-                element_set: name.into(),
-                law: NeoHookean::from_shear_poisson(g, nu).map_err(component("continuum"))?,
-                formulation: Hex8Formulation::MeanDilatation,
-            });
-        }
+        let materials = crate::cell::suspended::continuum_materials(
+            (m.cytoplasm_shear_modulus, m.cytoplasm_poisson_ratio),
+            (m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
+        )?;
         let mut structures = StructuresSpec::default();
         let bottom: HashSet<usize> = mesh.node_sets["bottom"].iter().copied().collect();
         let dome_faces: Vec<[usize; 4]> = geometry
@@ -224,7 +183,8 @@ impl AdherentCell {
             filaments: Filament::one_per_element(geometry.bundles.len(), Some(FilamentEnd::Both)),
             pairs: geometry.bundles.clone(),
             element: FilamentElement::Truss(
-                tension_only("bundles", b.youngs_modulus, b.diameter)?.with_prestrain(b.prestrain),
+                tension_only_law("bundles", b.youngs_modulus, b.diameter)?
+                    .with_prestrain(b.prestrain),
             ),
             enabled: on.bundles,
         });
@@ -245,7 +205,7 @@ impl AdherentCell {
             ),
             pairs: geometry.intermediate_filaments.clone(),
             element: FilamentElement::Truss(
-                tension_only("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack),
+                tension_only_law("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack),
             ),
             enabled: on.intermediate,
         });

@@ -12,10 +12,8 @@ use super::geometry::{AdherentMeshResolution, AdherentShape};
 use super::layout::{AdherentCellParams, LocalRefinement};
 use super::AdherentCellMaterials;
 use crate::cell::suspended::params::{self as shared, p};
+use crate::cell::suspended::ActinMaterial;
 use crate::cell::suspended::MAX_MT_BOW;
-use crate::cell::suspended::{
-    ActinMaterial, IfAnchorRule, IntermediateMaterial, MicrotubuleMaterial,
-};
 
 const POS: Bounds = Bounds::POSITIVE;
 const NONNEG: Bounds = Bounds::NON_NEGATIVE;
@@ -117,10 +115,7 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
         centrosome_direction: v.vector3("microtubules.centrosome_direction"),
         ifs_per_fa: v.count("intermediate.per_fa"),
         if_phase: v.number("intermediate.phase_deg").to_radians(),
-        if_anchor_rule: match v.word("intermediate.anchor") {
-            "nearest-visible" => IfAnchorRule::NearestVisible,
-            _ => IfAnchorRule::Nearest,
-        },
+        if_anchor_rule: shared::if_anchor_rule_from_values(v),
         seed: v.seed("seed"),
     };
     let materials = AdherentCellMaterials {
@@ -135,17 +130,8 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
             diameter: v.number("bundles.diameter"),
             prestrain: v.number("bundles.prestrain"),
         },
-        microtubule: MicrotubuleMaterial {
-            youngs_modulus: v.number("microtubules.youngs_modulus"),
-            outer_diameter: v.number("microtubules.outer_diameter"),
-            inner_diameter: v.number("microtubules.inner_diameter"),
-            poisson_ratio: v.number("microtubules.poisson_ratio"),
-        },
-        intermediate: IntermediateMaterial {
-            youngs_modulus: v.number("intermediate.youngs_modulus"),
-            diameter: v.number("intermediate.diameter"),
-            slack: v.number("intermediate.slack"),
-        },
+        microtubule: shared::microtubule_from_values(v),
+        intermediate: shared::intermediate_from_values(v),
     };
     (params, materials)
 }

@@ -114,7 +114,9 @@ pub enum CellModelError {
     },
 }
 
-fn component<E: std::fmt::Display>(component: &'static str) -> impl Fn(E) -> CellModelError {
+pub(crate) fn component<E: std::fmt::Display>(
+    component: &'static str,
+) -> impl Fn(E) -> CellModelError {
     move |e| CellModelError::Component {
         component,
         message: e.to_string(),
@@ -133,7 +135,7 @@ fn positive(component: &'static str, what: &str, value: f64) -> Result<f64, Cell
 }
 
 /// A tension-only truss law of a solid circular section (checked positive).
-fn tension_only_law(
+pub(crate) fn tension_only_law(
     component: &'static str,
     youngs_modulus: f64,
     diameter: f64,
@@ -165,6 +167,24 @@ pub(crate) fn insert_microtubule_node_sets(mesh: &mut Mesh, chains: &[Vec<usize>
         })
         .collect();
     mesh.insert_node_set("microtubule_anchors", anchors);
+}
+
+/// The neo-Hookean, mean-dilatation laws of blocks `cytoplasm` and `nucleus` from their
+/// (shear modulus, Poisson's ratio).
+pub(crate) fn continuum_materials(
+    cytoplasm: (f64, f64),
+    nucleus: (f64, f64),
+) -> Result<Vec<MaterialAssignment>, CellModelError> {
+    [("cytoplasm", cytoplasm), ("nucleus", nucleus)]
+        .into_iter()
+        .map(|(name, (g, nu))| {
+            Ok(MaterialAssignment {
+                element_set: name.into(),
+                law: NeoHookean::from_shear_poisson(g, nu).map_err(component("continuum"))?,
+                formulation: Hex8Formulation::MeanDilatation,
+            })
+        })
+        .collect()
 }
 
 /// The MT family: one hollow-section beam chain per MT, `chains` running from the
@@ -208,22 +228,10 @@ pub fn suspended_cell_parts(
     let chains = geometry.append_microtubule_nodes(&mut mesh);
     insert_microtubule_node_sets(&mut mesh, &chains);
     let m = materials;
-    let mut assignments = Vec::new();
-    for (name, g, nu) in [
-        (
-            "cytoplasm",
-            m.cytoplasm_shear_modulus,
-            m.cytoplasm_poisson_ratio,
-        ),
-        ("nucleus", m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
-    ] {
-        let law = NeoHookean::from_shear_poisson(g, nu).map_err(component("continuum"))?;
-        assignments.push(MaterialAssignment {
-            element_set: name.into(),
-            law,
-            formulation: Hex8Formulation::MeanDilatation,
-        });
-    }
+    let assignments = continuum_materials(
+        (m.cytoplasm_shear_modulus, m.cytoplasm_poisson_ratio),
+        (m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
+    )?;
     let mut structures = StructuresSpec::default();
     let faces = boundary_quads(&mesh, None).map_err(component("membrane"))?;
     structures.membranes.push(MembraneSpec {

@@ -421,10 +421,7 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         centrosome_direction: v.vector3("microtubules.centrosome_direction"),
         ifs_per_fa: v.count("intermediate.per_fa"),
         if_phase: v.number("intermediate.phase_deg").to_radians(),
-        if_anchor_rule: match v.word("intermediate.anchor") {
-            "nearest-visible" => IfAnchorRule::NearestVisible,
-            _ => IfAnchorRule::Nearest,
-        },
+        if_anchor_rule: if_anchor_rule_from_values(v),
         seed: v.seed("seed"),
     };
     let materials = SuspendedCellMaterials {
@@ -439,19 +436,37 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             diameter: v.number("actin.diameter"),
             prestrain: v.number("actin.prestrain"),
         },
-        microtubule: MicrotubuleMaterial {
-            youngs_modulus: v.number("microtubules.youngs_modulus"),
-            outer_diameter: v.number("microtubules.outer_diameter"),
-            inner_diameter: v.number("microtubules.inner_diameter"),
-            poisson_ratio: v.number("microtubules.poisson_ratio"),
-        },
-        intermediate: IntermediateMaterial {
-            youngs_modulus: v.number("intermediate.youngs_modulus"),
-            diameter: v.number("intermediate.diameter"),
-            slack: v.number("intermediate.slack"),
-        },
+        microtubule: microtubule_from_values(v),
+        intermediate: intermediate_from_values(v),
     };
     (params, materials)
+}
+
+/// The MT material of the shared `microtubules.*` keys.
+pub(crate) fn microtubule_from_values(v: &ParamValues) -> MicrotubuleMaterial {
+    MicrotubuleMaterial {
+        youngs_modulus: v.number("microtubules.youngs_modulus"),
+        outer_diameter: v.number("microtubules.outer_diameter"),
+        inner_diameter: v.number("microtubules.inner_diameter"),
+        poisson_ratio: v.number("microtubules.poisson_ratio"),
+    }
+}
+
+/// The IF material of the shared `intermediate.*` keys.
+pub(crate) fn intermediate_from_values(v: &ParamValues) -> IntermediateMaterial {
+    IntermediateMaterial {
+        youngs_modulus: v.number("intermediate.youngs_modulus"),
+        diameter: v.number("intermediate.diameter"),
+        slack: v.number("intermediate.slack"),
+    }
+}
+
+/// The IF anchor rule of the shared `intermediate.anchor` key.
+pub(crate) fn if_anchor_rule_from_values(v: &ParamValues) -> IfAnchorRule {
+    match v.word("intermediate.anchor") {
+        "nearest-visible" => IfAnchorRule::NearestVisible,
+        _ => IfAnchorRule::Nearest,
+    }
 }
 
 /// The viscous stabilisation of every step from resolved values of [`SUSPENDED_CELL`].
