@@ -5,7 +5,7 @@
 //! Relative errors are `max |analytic − FD| / max |analytic|` per element (see
 //! `verify::tangent`). A new element or material law gets a block here.
 
-use cellmech_fem::contact::{ContactKind, RigidContact, ToolShape};
+use cellmech_fem::contact::{ContactKind, CurvatureTangent, RigidContact, ToolShape};
 use cellmech_fem::continuum::ContinuumBlock;
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::element::beam::{BeamSection, BeamSet};
@@ -397,7 +397,11 @@ fn contact_frictionless_active_and_bonded() {
     let u = [0.01, -0.02, 0.04, 0.0, 0.01, 0.03, 0.02, 0.0, 0.05];
     let map = DofMap::translational(3);
     for shape in shapes {
-        let mut c = tool(shape, ContactKind::Frictionless, &x);
+        // The consistent tangent (the default lags the curvature term's pressure to the last
+        // equilibrium's). Committed at u, the status predictor activates every node.
+        let mut c = tool(shape, ContactKind::Frictionless, &x)
+            .with_curvature_tangent(CurvatureTangent::Consistent);
+        c.commit(&u, &map);
         c.set_load_state(&LoadState {
             step_index: 0,
             step_time: 0.5,

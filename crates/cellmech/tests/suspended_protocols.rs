@@ -153,9 +153,13 @@ fn compression_test_stiffens_and_flattens_the_nucleus() {
     let secant: Vec<f64> = at.iter().map(|(e, p)| p.force_nn / e).collect();
     assert!(secant.windows(2).all(|w| w[1] > 1.2 * w[0]), "{f:?}");
     // On this 448-element cell a new ring of surface nodes reaching the plate raises the
-    // slope by up to 2.4x between increments (a contact-discretisation event, not a solver
-    // artefact: the curve stays monotone and every increment converges).
-    assert_smooth(&r.curve, 2.5);
+    // slope between two increments (a contact-discretisation event, not a solver artefact:
+    // the slope stays at its new level, the curve is monotone and every increment
+    // converges). Measured: 2.4x with the contact status re-decided at every Newton
+    // iteration, 3.6x (10.8 -> 38.6 nN/um, near 30 %) since the status is held within a
+    // Newton solve and predicted per increment (docs/tools.md): the ring now engages within
+    // one increment instead of two.
+    assert_smooth(&r.curve, 4.0);
     // The nucleus flattens: shorter along the load (x) than across it, more and more.
     let aspect: Vec<f64> = at.iter().map(|(_, p)| p.nucleus_aspect_ratio).collect();
     assert!(aspect.windows(2).all(|w| w[1] < w[0]), "{aspect:?}");

@@ -3,11 +3,31 @@
 //! Node-to-rigid-surface contact, enforced by the augmented Lagrangian method (a penalty
 //! with Uzawa multiplier updates until the penetration is below a stated tolerance):
 //!
-//! * frictionless: Π_i = ⟨λ_i − ε φ(x_i)⟩₊² / (2ε), φ the tool's gap function; the
-//!   multiplier update is λ ← ⟨λ − ε φ⟩₊; separation is allowed;
+//! * frictionless: Π_i = (λ_i − ε φ(x_i))² / (2ε) for the nodes of the active set, φ the
+//!   tool's gap function; the multiplier update is λ ← ⟨λ − ε φ⟩₊; separation is allowed;
 //! * bonded: a node that touches the tool at a converged increment is tied from then on to
 //!   the tool point it touched: Π_i = λ_i·d_i + ε|d_i|²/2, d_i = x_i − (ξ_i + c(t)), the
 //!   update λ ← λ + ε d; it transmits tension.
+//!
+//! The frictionless active set is held fixed during Newton's iterations and updated between
+//! them, like the multipliers (the contact-status iterations of implicit FE codes): a free
+//! node enters it when it penetrates deeper than the tolerance, an active node leaves it
+//! when it pulls on the tool harder than the penalty force of that tolerance (ε·tol).
+//! Inside one Newton solve the contact law is then smooth and Newton converges
+//! quadratically; with the law re-evaluated at every iteration instead, a node on the
+//! steep flank of a sharp AFM tip was pushed out in one iteration and fell back in at the
+//! next, and Newton cycled. Before each increment, the free nodes the moved tool reaches
+//! from where they were join the set (a status predictor). The band of ±tolerance between entering and leaving is the
+//! same accuracy the penetration tolerance already grants, and stops status cycles.
+//!
+//! The tangent of an active frictionless node is ε∇φ⊗∇φ − p̄∇²φ with p̄ = min(p, p_eq),
+//! p_eq the node's pressure at the last converged Newton state (0 for a node that was free
+//! there). The curvature term −p∇²φ is a negative stiffness across the normal of a curved
+//! tool (a node pressed onto a convex tip would slide off if the material did not hold it);
+//! with a trial pressure far above equilibrium it outweighed the material under the AFM tip
+//! and Newton's corrections inverted elements. Capped at p_eq it is exact at equilibrium
+//! and never more negative than at a state known to be stable (`docs/tools.md` has the
+//! measurements).
 //!
 //! Each node couples only with itself, so contact opening or closing never changes the
 //! sparsity pattern or the symbolic factorisation.
@@ -34,11 +54,27 @@ pub enum ContactKind {
     Bonded,
 }
 
+/// Which pressure the tangent's curvature term −p∇²φ of an active node uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub enum CurvatureTangent {
+    /// min(p, p_eq), p_eq the node's pressure at the last converged Newton state: exact at
+    /// equilibrium, never more negative than there (module notes). The default.
+    #[default]
+    Lagged,
+    /// The current trial pressure p: the exact derivative of the residual everywhere.
+    Consistent,
+}
+
 /// The state that changes as a transaction (trial → commit, or rollback).
 #[derive(Debug, Clone, PartialEq)]
 struct ContactState {
     offset: [f64; 3],
     lambda: Vec<f64>,
+    /// Frictionless active set (held during Newton, updated in `on_converged`).
+    active: Vec<bool>,
+    /// Contact pressure of each node at the last converged Newton state (0 for a node that
+    /// was not active there): caps the pressure in the tangent's curvature term.
+    equilibrium_pressure: Vec<f64>,
     anchors: Vec<Option<[f64; 3]>>,
     bond_lambda: Vec<[f64; 3]>,
 }
@@ -56,6 +92,10 @@ pub struct RigidContact {
     program: Vec<[f64; 3]>,
     trial: ContactState,
     committed: ContactState,
+    /// Positions of the contact nodes at the last committed increment (the reference ones
+    /// before the first): where the status predictor looks for nodes the tool will reach.
+    committed_positions: Vec<[f64; 3]>,
+    curvature_tangent: CurvatureTangent,
     last_step: usize,
     /// The step whose start offset is recorded in `step_start`.
     started_step: Option<usize>,
@@ -128,6 +168,8 @@ impl RigidContact {
         let state = ContactState {
             offset: [0.0; 3],
             lambda: vec![0.0; n],
+            active: vec![false; n],
+            equilibrium_pressure: vec![0.0; n],
             anchors: vec![None; n],
             bond_lambda: vec![[0.0; 3]; n],
         };
@@ -136,6 +178,8 @@ impl RigidContact {
             shape,
             kind,
             nodes,
+            committed_positions: reference.clone(),
+            curvature_tangent: CurvatureTangent::default(),
             reference,
             penalty,
             tolerance,
@@ -146,6 +190,12 @@ impl RigidContact {
             started_step: None,
             step_start: [0.0; 3],
         })
+    }
+
+    /// The same contact with the curvature term of its tangent taken as `curvature`.
+    pub fn with_curvature_tangent(mut self, curvature: CurvatureTangent) -> Self {
+        self.curvature_tangent = curvature;
+        self
     }
 
     /// Current pilot-point displacement (µm).
@@ -216,6 +266,70 @@ impl RigidContact {
             .fold(0.0, f64::max)
     }
 
+    /// Contact-status check at a converged Newton state: free nodes that penetrate deeper
+    /// than the tolerance enter the active set, active nodes that pull on the tool harder
+    /// than ε·tolerance (or left a disk's face) leave it with their multiplier reset.
+    /// Returns how many changed.
+    fn update_active_set(&mut self, u: &[f64], dof_map: &DofMap) -> usize {
+        let (eps, tol) = (self.penalty, self.tolerance);
+        let mut changed = 0;
+        for e in 0..self.nodes.len() {
+            if self.trial.anchors[e].is_some() {
+                continue;
+            }
+            let x = self.position(e, u, dof_map);
+            let gap = self.shape.gap(&x, &self.trial.offset);
+            let active = &mut self.trial.active[e];
+            let next = match gap {
+                None => false,
+                Some(g) if *active => self.trial.lambda[e] - eps * g.value >= -eps * tol,
+                Some(g) => g.value < -tol,
+            };
+            if next != *active {
+                *active = next;
+                if !next {
+                    self.trial.lambda[e] = 0.0;
+                }
+                changed += 1;
+            }
+        }
+        changed
+    }
+
+    /// Stores each active node's pressure at this converged state (0 for the others).
+    fn record_equilibrium_pressure(&mut self, u: &[f64], dof_map: &DofMap) {
+        for e in 0..self.nodes.len() {
+            let x = self.position(e, u, dof_map);
+            self.trial.equilibrium_pressure[e] = match self.shape.gap(&x, &self.trial.offset) {
+                Some(g) if self.trial.active[e] && self.trial.anchors[e].is_none() => {
+                    (self.trial.lambda[e] - self.penalty * g.value).max(0.0)
+                }
+                _ => 0.0,
+            };
+        }
+    }
+
+    /// Status predictor for the increment about to be attempted: free nodes that the tool,
+    /// at its new position, reaches deeper than the tolerance where they were at the last
+    /// committed increment enter the active set now, so that Newton's first correction moves
+    /// the whole contact patch with the tool instead of pushing the old patch alone (an
+    /// apex node driven one element size into the mesh inverts its elements).
+    fn predict_active_set(&mut self) {
+        for e in 0..self.nodes.len() {
+            if self.trial.active[e] || self.trial.anchors[e].is_some() {
+                continue;
+            }
+            if let Some(g) = self
+                .shape
+                .gap(&self.committed_positions[e], &self.trial.offset)
+            {
+                if g.value < -self.tolerance {
+                    self.trial.active[e] = true;
+                }
+            }
+        }
+    }
+
     /// Total force the tool exerts on the body (nN).
     pub fn force_on_body(&self, u: &[f64], dof_map: &DofMap) -> [f64; 3] {
         let mut total = [0.0; 3];
@@ -258,20 +372,28 @@ impl RigidContact {
             }
             return Ok((0..3).map(|i| l[i] * d[i] + 0.5 * eps * d[i] * d[i]).sum());
         }
+        if !self.trial.active[e] {
+            return Ok(0.0);
+        }
         let Some(gap) = self.shape.gap(&x, &self.trial.offset) else {
             return Ok(0.0);
         };
+        // Active: the bilateral penalty law (a small pull is allowed until the status check).
         let p = self.trial.lambda[e] - eps * gap.value;
-        if p <= 0.0 {
-            return Ok(0.0);
-        }
+        // The curvature term with the pressure capped at the last equilibrium's (module
+        // notes): a lagged, never more negative stiffness.
+        let p_curvature = match self.curvature_tangent {
+            CurvatureTangent::Lagged => p.min(self.trial.equilibrium_pressure[e]),
+            CurvatureTangent::Consistent => p,
+        };
         for i in 0..3 {
             r[i] = -p * gap.gradient[i];
         }
         if let Some(k) = k {
             for i in 0..3 {
                 for j in 0..3 {
-                    k[3 * i + j] = eps * gap.gradient[i] * gap.gradient[j] - p * gap.hessian[i][j];
+                    k[3 * i + j] =
+                        eps * gap.gradient[i] * gap.gradient[j] - p_curvature * gap.hessian[i][j];
                 }
             }
         }
@@ -345,9 +467,15 @@ impl ElementSet for RigidContact {
         self.trial.offset =
             std::array::from_fn(|i| from[i] + state.step_time * (end[i] - start[i]));
         self.last_step = state.step_index;
+        self.predict_active_set();
     }
 
     fn on_converged(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {
+        self.record_equilibrium_pressure(u, dof_map);
+        let changed = self.update_active_set(u, dof_map);
+        if changed > 0 {
+            return Augmentation::Updated(format!("{changed} contact nodes changed status"));
+        }
         let violation = self.max_violation(u, dof_map);
         if violation <= self.tolerance {
             return Augmentation::Settled;
@@ -361,11 +489,12 @@ impl ElementSet for RigidContact {
                         self.trial.bond_lambda[e][i] += eps * (x[i] - a[i] - self.trial.offset[i]);
                     }
                 }
-                None => {
+                None if self.trial.active[e] => {
                     if let Some(g) = self.shape.gap(&x, &self.trial.offset) {
                         self.trial.lambda[e] = (self.trial.lambda[e] - eps * g.value).max(0.0);
                     }
                 }
+                None => {}
             }
         }
         Augmentation::Updated(format!(
@@ -375,6 +504,9 @@ impl ElementSet for RigidContact {
     }
 
     fn on_commit(&mut self, u: &[f64], dof_map: &DofMap) {
+        for e in 0..self.nodes.len() {
+            self.committed_positions[e] = self.position(e, u, dof_map);
+        }
         if self.kind == ContactKind::Bonded {
             for e in 0..self.nodes.len() {
                 if self.trial.anchors[e].is_some() {
@@ -384,7 +516,11 @@ impl ElementSet for RigidContact {
                 let Some(g) = self.shape.gap(&x, &self.trial.offset) else {
                     continue;
                 };
-                let p = (self.trial.lambda[e] - self.penalty * g.value).max(0.0);
+                let p = if self.trial.active[e] {
+                    (self.trial.lambda[e] - self.penalty * g.value).max(0.0)
+                } else {
+                    0.0
+                };
                 if p > 0.0 || g.value <= self.tolerance {
                     // Tie the node where it is now; start the bond with the contact force so
                     // the converged equilibrium is unchanged.
