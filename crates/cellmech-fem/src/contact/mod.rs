@@ -17,8 +17,9 @@
 //! quadratically; with the law re-evaluated at every iteration instead, a node on the
 //! steep flank of a sharp AFM tip was pushed out in one iteration and fell back in at the
 //! next, and Newton cycled. Before each increment, the free nodes the moved tool reaches
-//! from where they were join the set (a status predictor). The band of ±tolerance between entering and leaving is the
-//! same accuracy the penetration tolerance already grants, and stops status cycles.
+//! from where they were join the set (a status predictor). The band of ±tolerance between
+//! entering and leaving is the same accuracy the penetration tolerance already grants, and
+//! stops status cycles.
 //!
 //! The tangent of an active frictionless node is ε∇φ⊗∇φ − p̄∇²φ with p̄ = min(p, p_eq),
 //! p_eq the node's pressure at the last converged Newton state (0 for a node that was free
@@ -266,10 +267,11 @@ impl RigidContact {
             .fold(0.0, f64::max)
     }
 
-    /// Contact-status check at a converged Newton state: free nodes that penetrate deeper
-    /// than the tolerance enter the active set, active nodes that pull on the tool harder
-    /// than ε·tolerance (or left a disk's face) leave it with their multiplier reset.
-    /// Returns how many changed.
+    /// Contact-status check at a converged Newton state: records each active node's
+    /// pressure there (the curvature term's cap; 0 for the others), then free nodes that
+    /// penetrate deeper than the tolerance enter the active set and active nodes that pull
+    /// on the tool harder than ε·tolerance (or left a disk's face) leave it with their
+    /// multiplier reset. Returns how many changed.
     fn update_active_set(&mut self, u: &[f64], dof_map: &DofMap) -> usize {
         let (eps, tol) = (self.penalty, self.tolerance);
         let mut changed = 0;
@@ -279,6 +281,10 @@ impl RigidContact {
             }
             let x = self.position(e, u, dof_map);
             let gap = self.shape.gap(&x, &self.trial.offset);
+            self.trial.equilibrium_pressure[e] = match gap {
+                Some(g) if self.trial.active[e] => (self.trial.lambda[e] - eps * g.value).max(0.0),
+                _ => 0.0,
+            };
             let active = &mut self.trial.active[e];
             let next = match gap {
                 None => false,
@@ -294,19 +300,6 @@ impl RigidContact {
             }
         }
         changed
-    }
-
-    /// Stores each active node's pressure at this converged state (0 for the others).
-    fn record_equilibrium_pressure(&mut self, u: &[f64], dof_map: &DofMap) {
-        for e in 0..self.nodes.len() {
-            let x = self.position(e, u, dof_map);
-            self.trial.equilibrium_pressure[e] = match self.shape.gap(&x, &self.trial.offset) {
-                Some(g) if self.trial.active[e] && self.trial.anchors[e].is_none() => {
-                    (self.trial.lambda[e] - self.penalty * g.value).max(0.0)
-                }
-                _ => 0.0,
-            };
-        }
     }
 
     /// Status predictor for the increment about to be attempted: free nodes that the tool,
@@ -471,7 +464,6 @@ impl ElementSet for RigidContact {
     }
 
     fn on_converged(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {
-        self.record_equilibrium_pressure(u, dof_map);
         let changed = self.update_active_set(u, dof_map);
         if changed > 0 {
             return Augmentation::Updated(format!("{changed} contact nodes changed status"));

@@ -138,7 +138,6 @@ impl Problem {
         let mut step_length = 1.0;
         let mut augmentations = 0;
         let mut round_start = 0;
-        let mut damping = 1.0;
         for iteration in 0.. {
             // Update and evaluate at the new point (tangent included for the next solve).
             if iteration == 0 {
@@ -147,14 +146,6 @@ impl Problem {
                 }
                 self.evaluate(quasi_newton == 0)?;
             } else {
-                if damping == 1.0 && two_cycle(&self.work.history[round_start..]) {
-                    damping = CYCLE_DAMPING;
-                }
-                if damping < 1.0 {
-                    for x in self.work.delta.iter_mut() {
-                        *x *= damping;
-                    }
-                }
                 step_length = self.line_search(conv, quasi_newton == 0)?;
             }
             let (residual_ratio, energy_ratio, scale) =
@@ -577,42 +568,5 @@ impl Problem {
         }
         self.evaluate(with_tangent)?;
         Ok(s)
-    }
-}
-
-/// Factor applied to every Newton correction of an increment once its iterations cycle.
-pub const CYCLE_DAMPING: f64 = 0.5;
-
-/// Whether the last four residual ratios alternate between two values (within 1 %): Newton
-/// flipping between two states, as a contact node does when it is pushed out in one
-/// iteration and falls back in the next (the penalty law's kink at zero pressure). Damped
-/// steps then close in on the kink instead of jumping over it.
-fn two_cycle(history: &[f64]) -> bool {
-    let n = history.len();
-    if n < 4 {
-        return false;
-    }
-    let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
-    let (a, b, c, d) = (
-        history[n - 4],
-        history[n - 3],
-        history[n - 2],
-        history[n - 1],
-    );
-    close(a, c) && close(b, d) && !close(a, b)
-}
-
-#[cfg(test)]
-mod cycle_tests {
-    use super::two_cycle;
-
-    #[test]
-    fn a_two_cycle_is_recognised_and_convergence_is_not() {
-        // The residual ratios of an AFM increment that flipped a contact node each iteration.
-        assert!(two_cycle(&[0.2, 3.587e-3, 1.853e-5, 3.5873e-3, 1.8528e-5]));
-        // Quadratic convergence, a stall and too short a history are not cycles.
-        assert!(!two_cycle(&[1e-1, 1e-2, 1e-4, 1e-8]));
-        assert!(!two_cycle(&[1e-3, 1e-3, 1e-3, 1e-3]));
-        assert!(!two_cycle(&[1e-3, 1e-5, 1e-3]));
     }
 }

@@ -195,20 +195,13 @@ impl AdherentCell {
                 &chains,
                 on.microtubules,
             )?);
-        let i = m.intermediate;
-        structures.filaments.push(FilamentSpec {
-            name: family::INTERMEDIATE.into(),
-            family: family::INTERMEDIATE.into(),
-            filaments: Filament::one_per_element(
-                geometry.intermediate_filaments.len(),
-                Some(FilamentEnd::Start),
-            ),
-            pairs: geometry.intermediate_filaments.clone(),
-            element: FilamentElement::Truss(
-                tension_only_law("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack),
-            ),
-            enabled: on.intermediate,
-        });
+        structures
+            .filaments
+            .push(crate::cell::suspended::intermediate_filaments(
+                &m.intermediate,
+                &geometry.intermediate_filaments,
+                on.intermediate,
+            )?);
         let report = &geometry.report;
         let p = &self.params;
         let supports = vec![("bottom".to_string(), [true, true, true])];

@@ -217,6 +217,24 @@ pub(crate) fn microtubule_filaments(
     })
 }
 
+/// The IF family: one slack tension-only truss per IF, `pairs` running from the FA (each
+/// filament's anchored start) to the nucleus surface.
+pub(crate) fn intermediate_filaments(
+    i: &IntermediateMaterial,
+    pairs: &[[usize; 2]],
+    enabled: bool,
+) -> Result<FilamentSpec, CellModelError> {
+    let law = tension_only_law("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack);
+    Ok(FilamentSpec {
+        name: family::INTERMEDIATE.into(),
+        family: family::INTERMEDIATE.into(),
+        filaments: Filament::one_per_element(pairs.len(), Some(FilamentEnd::Start)),
+        pairs: pairs.to_vec(),
+        element: FilamentElement::Truss(law),
+        enabled,
+    })
+}
+
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -260,19 +278,11 @@ pub fn suspended_cell_parts(
         &chains,
         components.microtubules,
     )?);
-    let i = m.intermediate;
-    let law = tension_only_law("intermediate", i.youngs_modulus, i.diameter)?.with_slack(i.slack);
-    structures.filaments.push(FilamentSpec {
-        name: family::INTERMEDIATE.into(),
-        family: family::INTERMEDIATE.into(),
-        filaments: Filament::one_per_element(
-            geometry.intermediate_filaments.len(),
-            Some(FilamentEnd::Start),
-        ),
-        pairs: geometry.intermediate_filaments.clone(),
-        element: FilamentElement::Truss(law),
-        enabled: components.intermediate,
-    });
+    structures.filaments.push(intermediate_filaments(
+        &m.intermediate,
+        &geometry.intermediate_filaments,
+        components.intermediate,
+    )?);
     for (set, nodes) in SUPPORT_SETS
         .iter()
         .zip(minimal_support_nodes(&mesh, 0.5 * params.nucleus_diameter))
