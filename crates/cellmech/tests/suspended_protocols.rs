@@ -42,13 +42,18 @@ fn af_prestress_force() -> f64 {
     2.6e6 * std::f64::consts::PI * 0.007f64.powi(2) / 4.0 * 0.24
 }
 
+/// The slopes of the force curve between successive points (nN/µm).
+fn slopes(curve: &[TestPoint]) -> Vec<f64> {
+    curve
+        .windows(2)
+        .map(|w| (w[1].force_nn - w[0].force_nn) / (w[1].displacement_um - w[0].displacement_um))
+        .collect()
+}
+
 /// Successive slopes of the force curve never change by more than a factor `ratio`:
 /// no jumps from solver artefacts.
 fn assert_smooth(curve: &[TestPoint], ratio: f64) {
-    let slopes: Vec<f64> = curve
-        .windows(2)
-        .map(|w| (w[1].force_nn - w[0].force_nn) / (w[1].displacement_um - w[0].displacement_um))
-        .collect();
+    let slopes = slopes(curve);
     for w in slopes.windows(2) {
         assert!(
             w[1] > 0.0 && w[1] / w[0] < ratio && w[0] / w[1] < ratio,
@@ -61,10 +66,7 @@ fn assert_smooth(curve: &[TestPoint], ratio: f64) {
 /// `ratio` against both its neighbours, the signature of a solver artefact. A step to a new
 /// level, where the slope stays, is a change of the contact and passes.
 fn assert_no_spike(curve: &[TestPoint], ratio: f64) {
-    let slopes: Vec<f64> = curve
-        .windows(2)
-        .map(|w| (w[1].force_nn - w[0].force_nn) / (w[1].displacement_um - w[0].displacement_um))
-        .collect();
+    let slopes = slopes(curve);
     for w in slopes.windows(3) {
         let (a, b, c) = (w[0], w[1], w[2]);
         assert!(
