@@ -302,6 +302,12 @@ fn huge_counts_are_rejected_before_allocating() {
             format!("seed = 2024\nfa_orientation = \"optimized\"\norientation_trials = {HUGE}"),
         ),
         (
+            // A cell 1000 times longer asks the octree for ~10⁸ elements at the tip.
+            "adherent-afm-apex",
+            "\"19 um\"",
+            "\"19 mm\"".into(),
+        ),
+        (
             "suspended-compression",
             "deformations = [\"10%\", \"30%\", \"50%\"]",
             format!("deformations = [{}]", vec!["\"10%\""; 10_000].join(", ")),

@@ -82,6 +82,43 @@ impl LocalRefinement {
         }
         (longest / target).log2().ceil().min(16.0) as u8
     }
+
+    /// Elements the refinement of the reference mesh `reference` (mapped by `shape`) at
+    /// `site` makes, estimated from the levels its base elements ask for (each level
+    /// splits into 8; the 2:1 balance adds some more).
+    pub fn estimated_elements(&self, reference: &Mesh, shape: &AdherentShape, site: V3) -> usize {
+        reference
+            .blocks
+            .iter()
+            .flat_map(|b| b.elements())
+            .map(|element| {
+                let x: [V3; 8] =
+                    std::array::from_fn(|i| shape.map(reference.nodes[element[i]], false));
+                let levels = self.extra_levels(&x, site).min(self.max_levels).min(16);
+                1usize << (3 * levels as u32)
+            })
+            .fold(0usize, usize::saturating_add)
+    }
+}
+
+/// Most hex8 elements a local refinement of the adherent cell may make (the default mesh
+/// has about 11 000, the finest one in the docs about 28 000): a larger estimate is an
+/// error before any refinement work.
+pub const MAX_REFINED_CELL_ELEMENTS: usize = 2_000_000;
+
+/// The error for a mapped mesh with an inverted element (`min_scaled_jacobian ≤ 0`).
+fn check_not_inverted(min_scaled_jacobian: f64) -> Result<(), AdherentLayoutError> {
+    if min_scaled_jacobian > 0.0 {
+        return Ok(());
+    }
+    Err(fail(
+        "mesh",
+        format!(
+            "the mapped mesh has an inverted element (min scaled Jacobian {min_scaled_jacobian:.3}): \
+             FAs closer than the mesh spacing crowd its elements; raise mesh.core_divisions \
+             (8 for the default 8 bundles) or lower bundles.count"
+        ),
+    ))
 }
 
 /// Parameters of the adherent-cell layout (µm).
@@ -489,9 +526,27 @@ impl AdherentCellGeometry {
                 Some(p)
             }
         };
+        // A base mesh that is already inverted fails before any refinement work.
+        check_not_inverted(
+            cellmech_fem::mesh::generate::quality::hex8_quality(&base).min_scaled_jacobian,
+        )?;
         let (mut mesh, hanging, boundary_faces) = match site_point {
             Some(s) => {
                 let refinement = params.refinement;
+                let estimate = refinement.estimated_elements(&reference, shape, s);
+                if estimate > MAX_REFINED_CELL_ELEMENTS {
+                    return Err(fail(
+                        "refinement",
+                        format!(
+                            "expected a refinement of at most {MAX_REFINED_CELL_ELEMENTS} hex8 \
+                             elements; found one of about {estimate} (element_size {} µm, \
+                             grading {} on a cell of semi-axes {:?} µm): raise \
+                             refinement.element_size or refinement.grading, or lower \
+                             refinement.max_levels",
+                            refinement.element_size, refinement.grading, shape.semi_axes
+                        ),
+                    ));
+                }
                 let refined = cellmech_fem::mesh::refine::refine_hex8_by_level(
                     &reference,
                     |corners, level| {
@@ -512,17 +567,7 @@ impl AdherentCellGeometry {
             }
         };
         let mesh_quality = mesh_report(&mesh, shape);
-        if !(mesh_quality.min_scaled_jacobian > 0.0) {
-            return Err(fail(
-                "mesh",
-                format!(
-                    "the mapped mesh has an inverted element (min scaled Jacobian {:.3}): FAs \
-                     closer than the mesh spacing crowd its elements; raise mesh.core_divisions \
-                     (8 for the default 8 bundles) or lower bundles.count",
-                    mesh_quality.min_scaled_jacobian
-                ),
-            ));
-        }
+        check_not_inverted(mesh_quality.min_scaled_jacobian)?;
         let (hanging, plaque_nodes) = tie_fa_plaques(&mesh, hanging, &fa_nodes, params.fa_radius);
         // ABs.
         let bundles: Vec<[usize; 2]> = (0..params.bundles)
