@@ -19,6 +19,12 @@ pub mod truss;
 
 pub use set::ElementSet;
 
+/// Axial strain below which a filament element's force counts as zero (neither in tension
+/// nor in compression): `|N| ≤ ZERO_FORCE_STRAIN · EA`. Round-off leaves forces of 1e-30 nN
+/// in unloaded elements; counting those by their sign would report an unloaded family as
+/// "in compression".
+pub const ZERO_FORCE_STRAIN: f64 = 1e-9;
+
 /// A kernel could not evaluate the element (the solver reacts by cutting the step).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum KernelError {

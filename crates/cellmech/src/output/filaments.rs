@@ -25,8 +25,9 @@ use serde::Serialize;
 
 use crate::model::filaments::{FilamentEnd, FilamentIndex};
 
-/// Axial strain below which a filament's force counts as zero (slack): `|N| ≤ 1e-9·EA`.
-pub const ZERO_FORCE_STRAIN: f64 = 1e-9;
+/// Axial strain below which a filament's force counts as zero (slack): `|N| ≤ 1e-9·EA`
+/// (the engine's per-element counts use the same threshold).
+pub use cellmech_fem::element::ZERO_FORCE_STRAIN;
 
 /// Chord over arc length above which a beam filament counts as straight.
 pub const STRAIGHT_CHORD_RATIO: f64 = 0.99;

@@ -59,9 +59,9 @@ pub struct ForceStatistics {
     pub max: f64,
     /// Mean axial force (nN).
     pub mean: f64,
-    /// Elements with N > 0.
+    /// Elements with N > ZERO_FORCE_STRAIN·EA ([`crate::element::ZERO_FORCE_STRAIN`]).
     pub tension: usize,
-    /// Elements with N < 0.
+    /// Elements with N < −ZERO_FORCE_STRAIN·EA.
     pub compression: usize,
 }
 
@@ -211,6 +211,7 @@ impl BeamSet {
         let results = self.element_results(u, dof_map)?;
         let forces = results.iter().map(|r| r.axial_force);
         let count = results.len();
+        let zero = crate::element::ZERO_FORCE_STRAIN * self.section.axial_stiffness();
         if count == 0 {
             return Ok(ForceStatistics {
                 count,
@@ -226,8 +227,8 @@ impl BeamSet {
             min: forces.clone().fold(f64::INFINITY, f64::min),
             max: forces.clone().fold(f64::NEG_INFINITY, f64::max),
             mean: forces.clone().sum::<f64>() / count as f64,
-            tension: forces.clone().filter(|&n| n > 0.0).count(),
-            compression: forces.filter(|&n| n < 0.0).count(),
+            tension: forces.clone().filter(|&n| n > zero).count(),
+            compression: forces.filter(|&n| n < -zero).count(),
         })
     }
 }

@@ -336,6 +336,10 @@ fn beam_set_scalar_outputs_report_the_family_statistics() {
     assert_eq!(get("microtubule_in_tension"), 1.0);
     assert_eq!(get("microtubule_in_compression"), 1.0);
     assert!(get("microtubule_bending_moment_max_nN_um").abs() < 1e-12);
+    // Round-off-sized strains (1e-14) count as neither tension nor compression.
+    let tiny: Vec<f64> = u.iter().map(|v| v * 1e-12).collect();
+    let counts = set.force_statistics(&tiny, &map).unwrap();
+    assert_eq!((counts.tension, counts.compression), (0, 0));
     set.enabled = false;
     assert!(set.scalar_outputs(&u, &map).is_empty());
 }
