@@ -455,3 +455,76 @@ fn contact_frictionless_active_and_bonded() {
         );
     }
 }
+
+#[test]
+fn contact_on_faces_frictionless() {
+    let shapes = [
+        ToolShape::Sphere {
+            center: [0.0, 0.0, 2.0],
+            radius: 1.0,
+        },
+        ToolShape::Paraboloid {
+            apex: [0.1, 0.0, 1.05],
+            axis: [0.0, 0.0, -1.0],
+            tip_radius: 0.3,
+        },
+        ToolShape::Plate {
+            point: [0.0, 0.0, 1.02],
+            normal: [0.0, 0.0, -1.0],
+        },
+    ];
+    // Two warped faces sharing an edge, pushed into the tool.
+    let x = [
+        [-0.3, -0.2, 1.1],
+        [0.0, -0.25, 1.12],
+        [0.05, 0.2, 1.09],
+        [-0.25, 0.15, 1.1],
+        [0.3, -0.2, 1.08],
+        [0.28, 0.22, 1.11],
+    ];
+    let faces = [[0, 1, 2, 3], [1, 4, 5, 2]];
+    let u: Vec<f64> = (0..18).map(|i| 0.01 * ((i * 7 % 5) as f64 - 2.0)).collect();
+    let map = DofMap::translational(6);
+    for shape in shapes {
+        for per_side in [2, 3] {
+            let mut c = RigidContact::on_faces(
+                "t",
+                shape,
+                ContactKind::Frictionless,
+                &faces,
+                &x,
+                per_side,
+                7.0,
+                1e-6,
+                vec![[0.0; 3]],
+            )
+            .unwrap()
+            .with_curvature_tangent(CurvatureTangent::Consistent);
+            c.commit(&u, &map);
+            c.set_load_state(&LoadState {
+                step_index: 0,
+                step_time: 0.5,
+            });
+            let what = format!("frictionless faces ({per_side}²) {shape:?}");
+            let mut r = [0.0; 12];
+            let u_face_1: Vec<f64> = faces[1]
+                .iter()
+                .flat_map(|&n| u[3 * n..3 * n + 3].to_vec())
+                .collect();
+            c.evaluate(1, &u_face_1, &mut r, None).unwrap();
+            assert!(r.iter().any(|&v| v != 0.0), "{what}: face 1 must be active");
+            assert_term(
+                &what,
+                &c,
+                &map,
+                &u,
+                Fd {
+                    h: 1e-7,
+                    rel: 1e-6,
+                    sym: 1e-15,
+                    abs: Some(1e-6),
+                },
+            );
+        }
+    }
+}

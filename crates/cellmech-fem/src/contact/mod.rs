@@ -86,15 +86,28 @@ pub struct RigidContact {
     name: String,
     shape: ToolShape,
     kind: ContactKind,
+    /// The nodes of every contact element, flat: element e owns
+    /// `nodes[node_starts[e]..node_starts[e + 1]]` (one node, or a face's four).
     nodes: Vec<usize>,
+    /// Reference coordinates of `nodes`.
     reference: Vec<[f64; 3]>,
+    node_starts: Vec<usize>,
+    /// Contact points of element e: `point_starts[e]..point_starts[e + 1]`.
+    point_starts: Vec<usize>,
+    /// The element of each contact point.
+    point_element: Vec<usize>,
+    /// Shape-function weights of each point on its element's nodes (the first
+    /// `node_starts[e + 1] − node_starts[e]` are used).
+    weights: Vec<[f64; 4]>,
+    /// Penalty factor of each point: its share of the surface (1 for a node).
+    scale: Vec<f64>,
     penalty: f64,
     tolerance: f64,
     program: Vec<[f64; 3]>,
     trial: ContactState,
     committed: ContactState,
-    /// Positions of the contact nodes at the last committed increment (the reference ones
-    /// before the first): where the status predictor looks for nodes the tool will reach.
+    /// Positions of the contact points at the last committed increment (the reference ones
+    /// before the first): where the status predictor looks for points the tool will reach.
     committed_positions: Vec<[f64; 3]>,
     curvature_tangent: CurvatureTangent,
     last_step: usize,
@@ -116,6 +129,16 @@ pub enum ContactError {
     Shape {
         /// Tool name.
         tool: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A contact face is degenerate or names a node without coordinates.
+    #[error("tool '{tool}': contact face {face}: {message}")]
+    Face {
+        /// Tool name.
+        tool: String,
+        /// Index of the face.
+        face: usize,
         /// What is wrong.
         message: String,
     },
@@ -166,6 +189,126 @@ impl RigidContact {
             });
         }
         let n = nodes.len();
+        Ok(Self::assemble(
+            name,
+            shape,
+            kind,
+            (nodes, reference, (0..=n).collect()),
+            (
+                (0..=n).collect(),
+                vec![[1.0, 0.0, 0.0, 0.0]; n],
+                vec![1.0; n],
+            ),
+            (penalty, tolerance),
+            program,
+        ))
+    }
+
+    /// A tool `shape` acting on the surface `faces` (bilinear quads, corners in cyclic
+    /// order, `coordinates[node]` their reference positions) through `points_per_side`²
+    /// Gauss points per face (1 to 4): a point-to-rigid-surface contact whose points lie
+    /// between the nodes too, so a tool sharper than the mesh cannot slip between the nodes
+    /// of a face into the body, as it does with node contact. Each point's penalty is
+    /// `penalty` × its share of the surface (its Gauss weight × area over the mean face
+    /// area): a face takes about the penalty of one node. Other arguments as in
+    /// [`RigidContact::new`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn on_faces(
+        name: impl Into<String>,
+        shape: ToolShape,
+        kind: ContactKind,
+        faces: &[[usize; 4]],
+        coordinates: &[[f64; 3]],
+        points_per_side: usize,
+        penalty: f64,
+        tolerance: f64,
+        program: Vec<[f64; 3]>,
+    ) -> Result<Self, ContactError> {
+        let name = name.into();
+        if faces.is_empty() {
+            return Err(ContactError::NoNodes(name));
+        }
+        shape.validate().map_err(|message| ContactError::Shape {
+            tool: name.clone(),
+            message,
+        })?;
+        if !(penalty > 0.0 && tolerance > 0.0) {
+            return Err(ContactError::Parameters {
+                tool: name,
+                penalty,
+                tolerance,
+            });
+        }
+        let face_error = |face: usize, message: String| ContactError::Face {
+            tool: name.clone(),
+            face,
+            message,
+        };
+        let rule = gauss_rule(points_per_side).ok_or_else(|| {
+            face_error(
+                0,
+                format!("expected 1 to 4 points per side; found {points_per_side}"),
+            )
+        })?;
+        let mut nodes = Vec::with_capacity(4 * faces.len());
+        let mut reference = Vec::with_capacity(4 * faces.len());
+        let mut node_starts = vec![0];
+        let mut point_starts = vec![0];
+        let (mut weights, mut areas) = (Vec::new(), Vec::new());
+        for (f, face) in faces.iter().enumerate() {
+            let x: [[f64; 3]; 4] =
+                std::array::from_fn(|a| coordinates.get(face[a]).copied().unwrap_or([f64::NAN; 3]));
+            if x.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(face_error(
+                    f,
+                    format!("expected nodes with finite coordinates; found {face:?}"),
+                ));
+            }
+            for (&(xi, wx), &(eta, wy)) in
+                rule.iter().flat_map(|a| rule.iter().map(move |b| (a, b)))
+            {
+                let (n, dxi, deta) = quad_shape(xi, eta);
+                let t1: [f64; 3] = std::array::from_fn(|i| (0..4).map(|a| dxi[a] * x[a][i]).sum());
+                let t2: [f64; 3] = std::array::from_fn(|i| (0..4).map(|a| deta[a] * x[a][i]).sum());
+                let area = norm(&crate::math::vec3::cross(&t1, &t2));
+                if !(area > 0.0) {
+                    return Err(face_error(
+                        f,
+                        format!("expected a face of positive area; found {face:?} at {x:?}"),
+                    ));
+                }
+                weights.push(n);
+                areas.push(wx * wy * area);
+            }
+            nodes.extend_from_slice(face);
+            reference.extend_from_slice(&x);
+            node_starts.push(nodes.len());
+            point_starts.push(weights.len());
+        }
+        let mean_face = areas.iter().sum::<f64>() / faces.len() as f64;
+        let scale = areas.iter().map(|a| a / mean_face).collect();
+        Ok(Self::assemble(
+            name,
+            shape,
+            kind,
+            (nodes, reference, node_starts),
+            (point_starts, weights, scale),
+            (penalty, tolerance),
+            program,
+        ))
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn assemble(
+        name: String,
+        shape: ToolShape,
+        kind: ContactKind,
+        (nodes, reference, node_starts): (Vec<usize>, Vec<[f64; 3]>, Vec<usize>),
+        (point_starts, weights, scale): (Vec<usize>, Vec<[f64; 4]>, Vec<f64>),
+        (penalty, tolerance): (f64, f64),
+        program: Vec<[f64; 3]>,
+    ) -> Self {
+        let n = weights.len();
         let state = ContactState {
             offset: [0.0; 3],
             lambda: vec![0.0; n],
@@ -174,14 +317,22 @@ impl RigidContact {
             anchors: vec![None; n],
             bond_lambda: vec![[0.0; 3]; n],
         };
-        Ok(RigidContact {
+        let point_element = (0..node_starts.len() - 1)
+            .flat_map(|e| std::iter::repeat_n(e, point_starts[e + 1] - point_starts[e]))
+            .collect();
+        let mut contact = RigidContact {
             name,
             shape,
             kind,
             nodes,
-            committed_positions: reference.clone(),
-            curvature_tangent: CurvatureTangent::default(),
             reference,
+            node_starts,
+            point_starts,
+            point_element,
+            weights,
+            scale,
+            committed_positions: Vec::new(),
+            curvature_tangent: CurvatureTangent::default(),
             penalty,
             tolerance,
             program,
@@ -190,7 +341,11 @@ impl RigidContact {
             last_step: 0,
             started_step: None,
             step_start: [0.0; 3],
-        })
+        };
+        contact.committed_positions = (0..n)
+            .map(|q| contact.point_position(q, |_, _| 0.0))
+            .collect();
+        contact
     }
 
     /// The same contact with the curvature term of its tangent taken as `curvature`.
@@ -223,8 +378,30 @@ impl RigidContact {
             .count()
     }
 
-    fn position(&self, e: usize, u: &[f64], dof_map: &DofMap) -> [f64; 3] {
-        std::array::from_fn(|i| self.reference[e][i] + u[dof_map.dof(self.nodes[e], i)])
+    /// Number of contact points.
+    pub fn point_count(&self) -> usize {
+        self.weights.len()
+    }
+
+    /// Position of point q, with `u_of(k, i)` the displacement of its element's k-th node
+    /// (component i).
+    fn point_position(&self, q: usize, u_of: impl Fn(usize, usize) -> f64) -> [f64; 3] {
+        let e = self.point_element[q];
+        let (first, count) = (
+            self.node_starts[e],
+            self.node_starts[e + 1] - self.node_starts[e],
+        );
+        let w = &self.weights[q];
+        std::array::from_fn(|i| {
+            (0..count)
+                .map(|k| w[k] * (self.reference[first + k][i] + u_of(k, i)))
+                .sum()
+        })
+    }
+
+    fn position(&self, q: usize, u: &[f64], dof_map: &DofMap) -> [f64; 3] {
+        let first = self.node_starts[self.point_element[q]];
+        self.point_position(q, |k, i| u[dof_map.dof(self.nodes[first + k], i)])
     }
 
     fn program_at(&self, step: usize) -> [f64; 3] {
@@ -253,7 +430,7 @@ impl RigidContact {
 
     /// Largest penetration (µm, ≥ 0) of a free node, or bond gap of a bonded node.
     pub fn max_violation(&self, u: &[f64], dof_map: &DofMap) -> f64 {
-        (0..self.nodes.len())
+        (0..self.point_count())
             .map(|e| {
                 let x = self.position(e, u, dof_map);
                 match self.trial.anchors[e] {
@@ -275,12 +452,13 @@ impl RigidContact {
     fn update_active_set(&mut self, u: &[f64], dof_map: &DofMap) -> usize {
         let (eps, tol) = (self.penalty, self.tolerance);
         let mut changed = 0;
-        for e in 0..self.nodes.len() {
+        for e in 0..self.point_count() {
             if self.trial.anchors[e].is_some() {
                 continue;
             }
             let x = self.position(e, u, dof_map);
             let gap = self.shape.gap(&x, &self.trial.offset);
+            let eps = eps * self.scale[e];
             self.trial.equilibrium_pressure[e] = match gap {
                 Some(g) if self.trial.active[e] => (self.trial.lambda[e] - eps * g.value).max(0.0),
                 _ => 0.0,
@@ -308,7 +486,7 @@ impl RigidContact {
     /// the whole contact patch with the tool instead of pushing the old patch alone (an
     /// apex node driven one element size into the mesh inverts its elements).
     fn predict_active_set(&mut self) {
-        for e in 0..self.nodes.len() {
+        for e in 0..self.point_count() {
             if self.trial.active[e] || self.trial.anchors[e].is_some() {
                 continue;
             }
@@ -326,10 +504,9 @@ impl RigidContact {
     /// Total force the tool exerts on the body (nN).
     pub fn force_on_body(&self, u: &[f64], dof_map: &DofMap) -> [f64; 3] {
         let mut total = [0.0; 3];
-        let mut r = [0.0; 3];
-        for e in 0..self.nodes.len() {
-            let u_e: [f64; 3] = std::array::from_fn(|i| u[dof_map.dof(self.nodes[e], i)]);
-            if self.node_evaluate(e, &u_e, &mut r, None).is_ok() {
+        for q in 0..self.point_count() {
+            let x = self.position(q, u, dof_map);
+            if let Some((_, r, _)) = self.point_law(q, &x, false) {
                 for i in 0..3 {
                     total[i] -= r[i];
                 }
@@ -338,77 +515,111 @@ impl RigidContact {
         total
     }
 
-    fn node_evaluate(
+    /// The contact law of point q at position x: energy, force on the point (the residual
+    /// `∂Π/∂x`) and, if asked, its 3×3 tangent; `None` where the point carries nothing.
+    fn point_law(
+        &self,
+        q: usize,
+        x: &[f64; 3],
+        with_tangent: bool,
+    ) -> Option<(f64, [f64; 3], [[f64; 3]; 3])> {
+        let eps = self.penalty * self.scale[q];
+        let mut k = [[0.0; 3]; 3];
+        if let Some(anchor) = self.trial.anchors[q] {
+            let l = self.trial.bond_lambda[q];
+            let d: [f64; 3] = std::array::from_fn(|i| x[i] - anchor[i] - self.trial.offset[i]);
+            if with_tangent {
+                for (i, row) in k.iter_mut().enumerate() {
+                    row[i] = eps;
+                }
+            }
+            let energy = (0..3).map(|i| l[i] * d[i] + 0.5 * eps * d[i] * d[i]).sum();
+            return Some((energy, std::array::from_fn(|i| l[i] + eps * d[i]), k));
+        }
+        if !self.trial.active[q] {
+            return None;
+        }
+        let gap = self.shape.gap(x, &self.trial.offset)?;
+        // Active: the bilateral penalty law (a small pull is allowed until the status check).
+        let p = self.trial.lambda[q] - eps * gap.value;
+        if with_tangent {
+            // The curvature term with the pressure capped at the last equilibrium's (module
+            // notes): a lagged, never more negative stiffness.
+            let p_curvature = match self.curvature_tangent {
+                CurvatureTangent::Lagged => p.min(self.trial.equilibrium_pressure[q]),
+                CurvatureTangent::Consistent => p,
+            };
+            for (i, row) in k.iter_mut().enumerate() {
+                for (j, kij) in row.iter_mut().enumerate() {
+                    *kij =
+                        eps * gap.gradient[i] * gap.gradient[j] - p_curvature * gap.hessian[i][j];
+                }
+            }
+        }
+        Some((p * p / (2.0 * eps), gap.gradient.map(|g| -p * g), k))
+    }
+
+    /// Energy, residual and tangent of element e (a node or a face): the sum over its
+    /// points of the point law, spread on the nodes by the points' shape functions.
+    fn element_evaluate(
         &self,
         e: usize,
         u: &[f64],
         r: &mut [f64],
         k: Option<&mut [f64]>,
     ) -> Result<f64, KernelError> {
-        let x: [f64; 3] = std::array::from_fn(|i| self.reference[e][i] + u[i]);
-        let eps = self.penalty;
-        r[..3].fill(0.0);
+        let count = self.node_starts[e + 1] - self.node_starts[e];
+        let n = 3 * count;
+        r[..n].fill(0.0);
         let mut k = k;
         if let Some(k) = k.as_deref_mut() {
-            k[..9].fill(0.0);
+            k[..n * n].fill(0.0);
         }
-        if let Some(anchor) = self.trial.anchors[e] {
-            let l = self.trial.bond_lambda[e];
-            let d: [f64; 3] = std::array::from_fn(|i| x[i] - anchor[i] - self.trial.offset[i]);
-            for i in 0..3 {
-                r[i] = l[i] + eps * d[i];
-            }
-            if let Some(k) = k {
+        let mut energy = 0.0;
+        for q in self.point_starts[e]..self.point_starts[e + 1] {
+            let x = self.point_position(q, |a, i| u[3 * a + i]);
+            let Some((pi, rq, kq)) = self.point_law(q, &x, k.is_some()) else {
+                continue;
+            };
+            energy += pi;
+            let w = &self.weights[q];
+            for a in 0..count {
                 for i in 0..3 {
-                    k[4 * i] = eps;
+                    r[3 * a + i] += w[a] * rq[i];
                 }
             }
-            return Ok((0..3).map(|i| l[i] * d[i] + 0.5 * eps * d[i] * d[i]).sum());
-        }
-        if !self.trial.active[e] {
-            return Ok(0.0);
-        }
-        let Some(gap) = self.shape.gap(&x, &self.trial.offset) else {
-            return Ok(0.0);
-        };
-        // Active: the bilateral penalty law (a small pull is allowed until the status check).
-        let p = self.trial.lambda[e] - eps * gap.value;
-        // The curvature term with the pressure capped at the last equilibrium's (module
-        // notes): a lagged, never more negative stiffness.
-        let p_curvature = match self.curvature_tangent {
-            CurvatureTangent::Lagged => p.min(self.trial.equilibrium_pressure[e]),
-            CurvatureTangent::Consistent => p,
-        };
-        for i in 0..3 {
-            r[i] = -p * gap.gradient[i];
-        }
-        if let Some(k) = k {
-            for i in 0..3 {
-                for j in 0..3 {
-                    k[3 * i + j] =
-                        eps * gap.gradient[i] * gap.gradient[j] - p_curvature * gap.hessian[i][j];
+            if let Some(k) = k.as_deref_mut() {
+                for a in 0..count {
+                    for b in 0..count {
+                        let wab = w[a] * w[b];
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                k[(3 * a + i) * n + 3 * b + j] += wab * kq[i][j];
+                            }
+                        }
+                    }
                 }
             }
         }
-        Ok(p * p / (2.0 * eps))
+        Ok(energy)
     }
 }
 
-/// One element per contact node (its 3 translations); the tool's program, multipliers and
-/// bonds are the set's state, moved by the hooks.
+/// One element per contact node (its 3 translations) or face (its 4 nodes' 12); the
+/// tool's program, multipliers and bonds are the set's state, moved by the hooks.
 impl ElementSet for RigidContact {
-    const ELEMENT_DOFS: usize = 3;
+    const ELEMENT_DOFS: usize = 12;
 
     fn set_name(&self) -> &str {
         &self.name
     }
 
     fn element_count(&self) -> usize {
-        self.nodes.len()
+        self.node_starts.len() - 1
     }
 
     fn element_nodes(&self, e: usize) -> &[usize] {
-        std::slice::from_ref(&self.nodes[e])
+        &self.nodes[self.node_starts[e]..self.node_starts[e + 1]]
     }
 
     fn evaluate_element(
@@ -418,7 +629,7 @@ impl ElementSet for RigidContact {
         residual: &mut [f64],
         tangent: Option<&mut [f64]>,
     ) -> Result<f64, KernelError> {
-        self.node_evaluate(e, u_e, residual, tangent)
+        self.element_evaluate(e, u_e, residual, tangent)
     }
 
     fn curve_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
@@ -466,15 +677,15 @@ impl ElementSet for RigidContact {
     fn on_converged(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {
         let changed = self.update_active_set(u, dof_map);
         if changed > 0 {
-            return Augmentation::Updated(format!("{changed} contact nodes changed status"));
+            return Augmentation::Updated(format!("{changed} contact points changed status"));
         }
         let violation = self.max_violation(u, dof_map);
         if violation <= self.tolerance {
             return Augmentation::Settled;
         }
-        let eps = self.penalty;
-        for e in 0..self.nodes.len() {
+        for e in 0..self.point_count() {
             let x = self.position(e, u, dof_map);
+            let eps = self.penalty * self.scale[e];
             match self.trial.anchors[e] {
                 Some(a) => {
                     for i in 0..3 {
@@ -496,11 +707,11 @@ impl ElementSet for RigidContact {
     }
 
     fn on_commit(&mut self, u: &[f64], dof_map: &DofMap) {
-        for e in 0..self.nodes.len() {
+        for e in 0..self.point_count() {
             self.committed_positions[e] = self.position(e, u, dof_map);
         }
         if self.kind == ContactKind::Bonded {
-            for e in 0..self.nodes.len() {
+            for e in 0..self.point_count() {
                 if self.trial.anchors[e].is_some() {
                     continue;
                 }
@@ -509,7 +720,7 @@ impl ElementSet for RigidContact {
                     continue;
                 };
                 let p = if self.trial.active[e] {
-                    (self.trial.lambda[e] - self.penalty * g.value).max(0.0)
+                    (self.trial.lambda[e] - self.penalty * self.scale[e] * g.value).max(0.0)
                 } else {
                     0.0
                 };
@@ -553,6 +764,41 @@ pub fn scalar_name(tool: &str, scalar: ToolScalar) -> String {
         ToolScalar::ForceAlongMotion => format!("{tool}_force_along_motion_nN"),
         ToolScalar::MaxPenetration => format!("{tool}_max_penetration_um"),
     }
+}
+
+/// Gauss–Legendre points and weights on [−1, 1] with `n` points (1 to 4).
+fn gauss_rule(n: usize) -> Option<Vec<(f64, f64)>> {
+    let rule = match n {
+        1 => vec![(0.0, 2.0)],
+        2 => {
+            let g = 1.0 / 3f64.sqrt();
+            vec![(-g, 1.0), (g, 1.0)]
+        }
+        3 => {
+            let g = 0.6f64.sqrt();
+            vec![(-g, 5.0 / 9.0), (0.0, 8.0 / 9.0), (g, 5.0 / 9.0)]
+        }
+        4 => {
+            let (a, b) = (
+                (3.0 / 7.0 - 2.0 / 7.0 * 1.2f64.sqrt()).sqrt(),
+                (3.0 / 7.0 + 2.0 / 7.0 * 1.2f64.sqrt()).sqrt(),
+            );
+            let (wa, wb) = ((18.0 + 30f64.sqrt()) / 36.0, (18.0 - 30f64.sqrt()) / 36.0);
+            vec![(-b, wb), (-a, wa), (a, wa), (b, wb)]
+        }
+        _ => return None,
+    };
+    Some(rule)
+}
+
+/// Bilinear quad shape functions at (ξ, η) (corners (−1,−1), (1,−1), (1,1), (−1,1)) and
+/// their ξ and η derivatives.
+fn quad_shape(xi: f64, eta: f64) -> ([f64; 4], [f64; 4], [f64; 4]) {
+    const CORNERS: [(f64, f64); 4] = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    let n = CORNERS.map(|(a, b)| 0.25 * (1.0 + a * xi) * (1.0 + b * eta));
+    let dxi = CORNERS.map(|(a, b)| 0.25 * a * (1.0 + b * eta));
+    let deta = CORNERS.map(|(a, b)| 0.25 * b * (1.0 + a * xi));
+    (n, dxi, deta)
 }
 
 #[cfg(test)]

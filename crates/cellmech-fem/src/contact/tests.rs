@@ -140,3 +140,85 @@ fn contact_adds_no_entries_to_the_sparsity_pattern() {
     );
     assert_eq!(with_contact.assembler().pattern(), alone.pattern());
 }
+
+/// A plate pressed uniformly δ into a rectangular face: every Gauss point carries ε·share·δ,
+/// the face as a whole ε·δ (the penalty of one node), a quarter on each corner; a second,
+/// four times larger face takes four times the force.
+#[test]
+fn face_contact_spreads_a_uniform_pressure_by_area() {
+    let x = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 0.5, 0.0],
+        [0.0, 0.5, 0.0],
+        [3.0, 0.0, 0.0],
+        [3.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
+    // Face 0: 1 × 0.5; face 1: 2 × 1 (a trapezoid would do as well; rectangles are exact).
+    let faces = [[0, 1, 2, 3], [1, 4, 5, 6]];
+    let delta = 0.01;
+    // The plate's face at z = δ, its body below (the normal +z points to the body it
+    // pushes): both faces penetrate it by δ.
+    let plate = ToolShape::Plate {
+        point: [0.0, 0.0, delta],
+        normal: [0.0, 0.0, 1.0],
+    };
+    for per_side in 1..=4 {
+        let eps = 20.0;
+        let mut c = RigidContact::on_faces(
+            "plate",
+            plate,
+            ContactKind::Frictionless,
+            &faces,
+            &x,
+            per_side,
+            eps,
+            1e-9,
+            vec![[0.0; 3]],
+        )
+        .unwrap();
+        assert_eq!(c.point_count(), 2 * per_side * per_side);
+        c.set_load_state(&LoadState {
+            step_index: 0,
+            step_time: 1.0,
+        });
+        let u = vec![0.0; 21];
+        let map = DofMap::translational(7);
+        // The mean face area is (0.5 + 2) / 2 = 1.25: the faces take 0.4 and 1.6 ε δ.
+        let f = c.force_on_body(&u, &map);
+        assert!(
+            (f[2] - 2.0 * eps * delta).abs() < 1e-12,
+            "{per_side}: {f:?}"
+        );
+        let mut r = [0.0; 12];
+        for (face, share) in [(0, 0.4), (1, 1.6)] {
+            c.evaluate(face, &[0.0; 12], &mut r, None).unwrap();
+            for a in 0..4 {
+                let expected = -0.25 * share * eps * delta;
+                assert!((r[3 * a + 2] - expected).abs() < 1e-12, "{per_side}: {r:?}");
+                assert_eq!((r[3 * a], r[3 * a + 1]), (0.0, 0.0));
+            }
+        }
+    }
+    // Bad input is an error, not a panic.
+    let bad = |faces: &[[usize; 4]], per_side| {
+        RigidContact::on_faces(
+            "plate",
+            plate,
+            ContactKind::Frictionless,
+            faces,
+            &x,
+            per_side,
+            1.0,
+            1e-9,
+            vec![],
+        )
+        .unwrap_err()
+        .to_string()
+    };
+    assert!(bad(&[[0, 1, 2, 9]], 2).contains("finite coordinates"));
+    assert!(bad(&[[0, 1, 1, 0]], 2).contains("positive area"));
+    assert!(bad(&[[0, 1, 2, 3]], 5).contains("1 to 4 points"));
+    assert!(bad(&[], 2).contains("empty"));
+}

@@ -25,6 +25,9 @@ pub struct BuiltCell {
     pub description: CellDescription,
     /// Node set of the outer surface (contact candidates for tools).
     pub surface_set: String,
+    /// The outer surface's quad faces (free surface only; with a local refinement, its leaf
+    /// faces): where a face contact acts.
+    pub surface_faces: Vec<[usize; 4]>,
     /// The first analysis step every protocol starts with (the prestress, held by the
     /// model's minimal supports).
     pub prestress: crate::model::StepSpec,

@@ -41,6 +41,9 @@ pub struct ToolSpec {
     pub kind: ContactKind,
     /// Node set of the contact candidates (non-empty).
     pub node_set: String,
+    /// Surface faces the tool acts on through Gauss points ([`FACE_POINTS_PER_SIDE`]² per
+    /// face; `RigidContact::on_faces`); empty: node contact on `node_set`.
+    pub faces: Vec<[usize; 4]>,
     /// Penalty ε (nN/µm).
     pub penalty: f64,
     /// Penetration / bond-gap tolerance (µm).
@@ -111,6 +114,11 @@ fn mean_spacing(mesh: &Mesh, nodes: &[usize]) -> f64 {
     }
 }
 
+/// Gauss points per side of a contact face (3 × 3 per face): a point every third of a face,
+/// so a paraboloid tip of radius R between points protrudes at most (h/3)²/(8R) into a face
+/// of size h.
+pub const FACE_POINTS_PER_SIDE: usize = 3;
+
 /// The default penalty of a tool on `nodes`: [`PENALTY_FACTOR`] × the largest shear
 /// modulus × the mean spacing of the contact nodes (0 when no material has a modulus).
 pub fn default_penalty(materials: &[MaterialAssignment], mesh: &Mesh, nodes: &[usize]) -> f64 {
@@ -146,18 +154,33 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
         .tools
         .iter()
         .map(|tool| {
-            let nodes = contact_nodes(&model.mesh, &tool.node_set);
-            let reference = nodes.iter().map(|&n| model.mesh.nodes[n]).collect();
-            let term = RigidContact::new(
-                tool.name.clone(),
-                tool.shape,
-                tool.kind,
-                nodes,
-                reference,
-                tool.penalty,
-                tool.tolerance,
-                tool_program(&tool.name, &motions),
-            )?;
+            let program = tool_program(&tool.name, &motions);
+            let term = if tool.faces.is_empty() {
+                let nodes = contact_nodes(&model.mesh, &tool.node_set);
+                let reference = nodes.iter().map(|&n| model.mesh.nodes[n]).collect();
+                RigidContact::new(
+                    tool.name.clone(),
+                    tool.shape,
+                    tool.kind,
+                    nodes,
+                    reference,
+                    tool.penalty,
+                    tool.tolerance,
+                    program,
+                )?
+            } else {
+                RigidContact::on_faces(
+                    tool.name.clone(),
+                    tool.shape,
+                    tool.kind,
+                    &tool.faces,
+                    &model.mesh.nodes,
+                    FACE_POINTS_PER_SIDE,
+                    tool.penalty,
+                    tool.tolerance,
+                    program,
+                )?
+            };
             Ok(Box::new(term) as Box<dyn Term>)
         })
         .collect()

@@ -71,6 +71,14 @@ pub const AFM_INDENTATION: ParamTable = ParamTable {
             source: "choice",
         },
         ParamDef {
+            key: "contact",
+            kind: K::Choice(&["nodes", "faces"]),
+            default: D::Word("nodes"),
+            bounds: Bounds::ANY,
+            doc: "where the tip acts: the surface nodes, or 3 × 3 Gauss points on each surface face (a tip sharper than the stretched faces cannot slip between their nodes; slower: more contact-status solves per increment)",
+            source: "choice ([tools](tools.md#face-contact))",
+        },
+        ParamDef {
             key: "contact_force",
             kind: K::Quantity(Force),
             default: D::Number(0.005),
@@ -152,6 +160,8 @@ pub struct AfmIndentation {
     pub depths: Vec<f64>,
     /// Retract to first contact after the deepest indentation.
     pub retract: bool,
+    /// Contact on Gauss points of the surface faces instead of the surface nodes.
+    pub on_faces: bool,
     /// Force that counts as contact (nN).
     pub contact_force: f64,
     /// Start height of the tip above the undeformed site (µm).
@@ -202,6 +212,7 @@ impl AfmIndentation {
             tip_radius: v.number("tip_radius"),
             depths: v.list("depths").to_vec(),
             retract: v.word("retract") == "yes",
+            on_faces: v.word("contact") == "faces",
             contact_force: v.number("contact_force"),
             approach_gap: v.number("approach_gap"),
             max_increment: v.number("max_increment"),
@@ -325,6 +336,20 @@ impl AfmIndentation {
             .filter(|&n| crate::cell::vec3::distance(mesh.nodes[n], site) <= reach)
             .collect();
         mesh.insert_node_set("tip_contact", candidates.clone());
+        // With `contact = "faces"` the tip acts on the surface faces among the candidates
+        // (Gauss points between the nodes): with node contact the 0.2 µm tip slips between
+        // the nodes of the faces it has stretched and sinks into the cytoplasm beyond about
+        // 1 µm of indentation (docs/tools.md).
+        let inside: std::collections::HashSet<usize> = candidates.iter().copied().collect();
+        let faces: Vec<[usize; 4]> = if self.on_faces {
+            cell.surface_faces
+                .iter()
+                .copied()
+                .filter(|f| f.iter().all(|n| inside.contains(n)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let apex = [site[0], site[1], site[2] + self.approach_gap];
         let axis = [0.0, 0.0, -1.0];
         let shape = match self.tip {
@@ -347,6 +372,7 @@ impl AfmIndentation {
             shape,
             kind: ContactKind::Frictionless,
             node_set: "tip_contact".into(),
+            faces,
             penalty: default_penalty(&cell.model.materials, &cell.model.mesh, &candidates),
             // The penetration tolerance also resolves the tip: 1 % of its radius at most.
             tolerance: default_tolerance(&cell.model.mesh).min(0.01 * r),

@@ -364,6 +364,7 @@ impl PoleTest {
                 shape: shape(center, normal),
                 kind: ContactKind::Bonded,
                 node_set: set.into(),
+                faces: Vec::new(),
                 penalty: default_penalty(&cell.model.materials, &cell.model.mesh, nodes),
                 tolerance: default_tolerance(&cell.model.mesh),
             });

@@ -229,6 +229,7 @@ pub(super) fn resolve_tools(
             shape,
             kind,
             node_set: set_name.clone(),
+            faces: Vec::new(),
             penalty,
             tolerance,
         });

@@ -171,7 +171,7 @@ impl AdherentCell {
         structures.membranes.push(MembraneSpec {
             name: family::CORTEX.into(),
             family: family::CORTEX.into(),
-            faces: dome_faces,
+            faces: dome_faces.clone(),
             shear_modulus: m.cortex_shear_modulus,
             thickness: m.cortex_thickness,
             enabled: on.cortex,
@@ -260,6 +260,7 @@ impl AdherentCell {
             },
             description,
             surface_set: "dome".into(),
+            surface_faces: dome_faces,
             prestress,
             rotation_hold: supports,
             step_control: self.step_control(),

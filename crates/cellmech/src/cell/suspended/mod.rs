@@ -556,6 +556,13 @@ impl SuspendedCell {
                 "max_if_nucleus_penetration_um": report.max_if_nucleus_penetration,
             }),
         };
+        let surface_faces = parts
+            .structures
+            .membranes
+            .iter()
+            .find(|m| m.family == family::MEMBRANE)
+            .map(|m| m.faces.clone())
+            .unwrap_or_default();
         let prestress = crate::model::StepSpec {
             name: "prestress".into(),
             control: cellmech_fem::solve::StepControl {
@@ -588,6 +595,7 @@ impl SuspendedCell {
             },
             description,
             surface_set: "surface".into(),
+            surface_faces,
             prestress,
             rotation_hold,
             step_control: self.step_control(),
