@@ -174,20 +174,7 @@ impl RigidContact {
         program: Vec<[f64; 3]>,
     ) -> Result<Self, ContactError> {
         let name = name.into();
-        if nodes.is_empty() {
-            return Err(ContactError::NoNodes(name));
-        }
-        shape.validate().map_err(|message| ContactError::Shape {
-            tool: name.clone(),
-            message,
-        })?;
-        if !(penalty > 0.0 && tolerance > 0.0) {
-            return Err(ContactError::Parameters {
-                tool: name,
-                penalty,
-                tolerance,
-            });
-        }
+        check_setup(&name, nodes.is_empty(), &shape, penalty, tolerance)?;
         let n = nodes.len();
         Ok(Self::assemble(
             name,
@@ -225,20 +212,7 @@ impl RigidContact {
         program: Vec<[f64; 3]>,
     ) -> Result<Self, ContactError> {
         let name = name.into();
-        if faces.is_empty() {
-            return Err(ContactError::NoNodes(name));
-        }
-        shape.validate().map_err(|message| ContactError::Shape {
-            tool: name.clone(),
-            message,
-        })?;
-        if !(penalty > 0.0 && tolerance > 0.0) {
-            return Err(ContactError::Parameters {
-                tool: name,
-                penalty,
-                tolerance,
-            });
-        }
+        check_setup(&name, faces.is_empty(), &shape, penalty, tolerance)?;
         let face_error = |face: usize, message: String| ContactError::Face {
             tool: name.clone(),
             face,
@@ -804,6 +778,31 @@ pub fn scalar_name(tool: &str, scalar: ToolScalar) -> String {
         ToolScalar::ForceAlongMotion => format!("{tool}_force_along_motion_nN"),
         ToolScalar::MaxPenetration => format!("{tool}_max_penetration_um"),
     }
+}
+
+/// The checks every contact constructor makes: candidates, tool shape, penalty and tolerance.
+fn check_setup(
+    name: &str,
+    empty: bool,
+    shape: &ToolShape,
+    penalty: f64,
+    tolerance: f64,
+) -> Result<(), ContactError> {
+    if empty {
+        return Err(ContactError::NoNodes(name.to_string()));
+    }
+    shape.validate().map_err(|message| ContactError::Shape {
+        tool: name.to_string(),
+        message,
+    })?;
+    if !(penalty > 0.0 && tolerance > 0.0) {
+        return Err(ContactError::Parameters {
+            tool: name.to_string(),
+            penalty,
+            tolerance,
+        });
+    }
+    Ok(())
 }
 
 /// Gauss–Legendre points and weights on [−1, 1] with `n` points (1 to 4).

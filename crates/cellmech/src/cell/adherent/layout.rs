@@ -126,16 +126,7 @@ impl LocalRefinement {
             return;
         }
         // Trilinear sub-cubes in the reference space, corners in hex8 order.
-        const SIGNS: [[f64; 3]; 8] = [
-            [-1.0, -1.0, -1.0],
-            [1.0, -1.0, -1.0],
-            [1.0, 1.0, -1.0],
-            [-1.0, 1.0, -1.0],
-            [-1.0, -1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [-1.0, 1.0, 1.0],
-        ];
+        use cellmech_fem::mesh::surface::HEX8_CORNERS as SIGNS;
         let at = |xi: [f64; 3]| -> V3 {
             let mut p = [0.0; 3];
             for (c, s) in corners.iter().zip(SIGNS) {
