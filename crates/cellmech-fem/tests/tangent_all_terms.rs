@@ -375,9 +375,17 @@ fn tool(shape: ToolShape, kind: ContactKind, x: &[[f64; 3]]) -> RigidContact {
     .unwrap()
 }
 
-#[test]
-fn contact_frictionless_active_and_bonded() {
-    let shapes = [
+/// Finite-difference settings of the contact checks.
+const CONTACT_FD: Fd = Fd {
+    h: 1e-7,
+    rel: 1e-6,
+    sym: 1e-15,
+    abs: Some(1e-6),
+};
+
+/// A sphere, a paraboloid tip and a plate just below z = 1.1, their bodies above.
+fn contact_tools() -> [ToolShape; 3] {
+    [
         ToolShape::Sphere {
             center: [0.0, 0.0, 2.0],
             radius: 1.0,
@@ -391,7 +399,12 @@ fn contact_frictionless_active_and_bonded() {
             point: [0.0, 0.0, 1.02],
             normal: [0.0, 0.0, -1.0],
         },
-    ];
+    ]
+}
+
+#[test]
+fn contact_frictionless_active_and_bonded() {
+    let shapes = contact_tools();
     // Nodes pushed into the tool: every one is active.
     let x = [[0.2, 0.1, 1.1], [0.05, -0.1, 1.1], [-0.1, 0.15, 1.11]];
     let u = [0.01, -0.02, 0.04, 0.0, 0.01, 0.03, 0.02, 0.0, 0.05];
@@ -415,18 +428,7 @@ fn contact_frictionless_active_and_bonded() {
             );
         }
         let what = format!("frictionless {shape:?}");
-        assert_term(
-            &what,
-            &c,
-            &map,
-            &u,
-            Fd {
-                h: 1e-7,
-                rel: 1e-6,
-                sym: 1e-15,
-                abs: Some(1e-6),
-            },
-        );
+        assert_term(&what, &c, &map, &u, CONTACT_FD);
         // Bonded: the touching nodes are tied at commit, then pulled away.
         let mut b = tool(shape, ContactKind::Bonded, &x);
         b.set_load_state(&LoadState {
@@ -441,38 +443,13 @@ fn contact_frictionless_active_and_bonded() {
             .map(|(i, v)| v - 0.1 * (i % 3) as f64)
             .collect();
         let what = format!("bonded {shape:?}");
-        assert_term(
-            &what,
-            &b,
-            &map,
-            &pulled,
-            Fd {
-                h: 1e-7,
-                rel: 1e-6,
-                sym: 1e-15,
-                abs: Some(1e-6),
-            },
-        );
+        assert_term(&what, &b, &map, &pulled, CONTACT_FD);
     }
 }
 
 #[test]
 fn contact_on_faces_frictionless() {
-    let shapes = [
-        ToolShape::Sphere {
-            center: [0.0, 0.0, 2.0],
-            radius: 1.0,
-        },
-        ToolShape::Paraboloid {
-            apex: [0.1, 0.0, 1.05],
-            axis: [0.0, 0.0, -1.0],
-            tip_radius: 0.3,
-        },
-        ToolShape::Plate {
-            point: [0.0, 0.0, 1.02],
-            normal: [0.0, 0.0, -1.0],
-        },
-    ];
+    let shapes = contact_tools();
     // Two warped faces sharing an edge, pushed into the tool.
     let x = [
         [-0.3, -0.2, 1.1],
@@ -513,18 +490,7 @@ fn contact_on_faces_frictionless() {
                 .collect();
             c.evaluate(1, &u_face_1, &mut r, None).unwrap();
             assert!(r.iter().any(|&v| v != 0.0), "{what}: face 1 must be active");
-            assert_term(
-                &what,
-                &c,
-                &map,
-                &u,
-                Fd {
-                    h: 1e-7,
-                    rel: 1e-6,
-                    sym: 1e-15,
-                    abs: Some(1e-6),
-                },
-            );
+            assert_term(&what, &c, &map, &u, CONTACT_FD);
         }
     }
 }
