@@ -1,6 +1,8 @@
-//! Contact between surface nodes and rigid tools whose pilot point follows a load program.
+//! Contact between a body's surface and rigid tools whose pilot point follows a load program.
 //!
-//! Node-to-rigid-surface contact, enforced by the augmented Lagrangian method (a penalty
+//! Point-to-rigid-surface contact, the points being the surface nodes
+//! ([`RigidContact::new`]) or Gauss points of the surface faces ([`RigidContact::on_faces`],
+//! each point x = Σ N_a x_a spread on its face's nodes), enforced by the augmented Lagrangian method (a penalty
 //! with Uzawa multiplier updates until the penetration is below a stated tolerance):
 //!
 //! * frictionless: Π_i = (λ_i − ε φ(x_i))² / (2ε) for the nodes of the active set, φ the
@@ -33,7 +35,7 @@
 //! Each node couples only with itself, so contact opening or closing never changes the
 //! sparsity pattern or the symbolic factorisation.
 //!
-//! [`RigidContact`] is an [`ElementSet`] with one element per contact node; its load
+//! [`RigidContact`] is an [`ElementSet`] with one element per contact node or face; its load
 //! program, multipliers and bonds are moved by the set's hooks (`on_load_state`,
 //! `on_converged`, `on_commit`, `on_rollback`), which the `Term` adapter forwards.
 
