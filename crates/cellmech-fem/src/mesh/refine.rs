@@ -149,7 +149,7 @@ pub enum RefineError {
     /// The refined mesh would be too large.
     #[error("refine: the refined mesh would have more than {max} elements")]
     TooManyElements {
-        /// [`MAX_REFINED_ELEMENTS`].
+        /// The limit: [`MAX_REFINED_ELEMENTS`] or the caller's smaller one.
         max: usize,
     },
 }
@@ -179,6 +179,19 @@ pub fn refine_hex8_by_level(
     mesh: &Mesh,
     wanted_level: impl Fn(&[[f64; 3]; 8], u8) -> u8,
 ) -> Result<RefinedMesh, RefineError> {
+    refine_hex8_within(mesh, wanted_level, MAX_REFINED_ELEMENTS)
+}
+
+/// [`refine_hex8_by_level`] that stops with [`RefineError::TooManyElements`] as soon as the
+/// refined mesh would pass `max_elements` (at most [`MAX_REFINED_ELEMENTS`]): a caller that
+/// knows its sensible size fails in the time that many splits take, not the time of the
+/// engine's own limit.
+pub fn refine_hex8_within(
+    mesh: &Mesh,
+    wanted_level: impl Fn(&[[f64; 3]; 8], u8) -> u8,
+    max_elements: usize,
+) -> Result<RefinedMesh, RefineError> {
+    let max_elements = max_elements.min(MAX_REFINED_ELEMENTS);
     mesh.validate()?;
     if let Some(b) = mesh.blocks.iter().find(|b| b.kind != ElementKind::Hex8) {
         return Err(RefineError::NotHex8 {
@@ -194,10 +207,8 @@ pub fn refine_hex8_by_level(
     {
         return Err(RefineError::NonFiniteNode { node, coordinate });
     }
-    if mesh.num_elements() > MAX_REFINED_ELEMENTS {
-        return Err(RefineError::TooManyElements {
-            max: MAX_REFINED_ELEMENTS,
-        });
+    if mesh.num_elements() > max_elements {
+        return Err(RefineError::TooManyElements { max: max_elements });
     }
     // Node ids are packed in 32 bits in the edge and face keys; new nodes are at most
     // 19 per split, under 6·10⁷ within the element limit.
@@ -208,7 +219,7 @@ pub fn refine_hex8_by_level(
         });
     }
 
-    let mut refiner = Refiner::new(mesh);
+    let mut refiner = Refiner::new(mesh, max_elements);
     // 1. Wanted levels, root by root.
     let mut root = 0;
     let mut stack = Vec::new();
@@ -354,11 +365,13 @@ struct Refiner {
     cells: Vec<Cell>,
     num_roots: usize,
     leaves: usize,
+    /// Most leaves allowed.
+    max_leaves: usize,
     lattice: [([usize; 8], usize); 27],
 }
 
 impl Refiner {
-    fn new(mesh: &Mesh) -> Self {
+    fn new(mesh: &Mesh, max_leaves: usize) -> Self {
         let mut cells = Vec::with_capacity(mesh.num_elements());
         let mut uses: IdMap<u128, (SurfaceFace, usize, usize)> = IdMap::default();
         for (b, block) in mesh.blocks.iter().enumerate() {
@@ -400,6 +413,7 @@ impl Refiner {
             cells,
             num_roots,
             leaves: num_roots,
+            max_leaves,
             lattice: lattice_parents(),
         }
     }
@@ -439,9 +453,9 @@ impl Refiner {
 
     /// Splits leaf `cell` into 8 children; returns the index of the first.
     fn split(&mut self, cell: usize) -> Result<usize, RefineError> {
-        if self.leaves + 7 > MAX_REFINED_ELEMENTS {
+        if self.leaves + 7 > self.max_leaves {
             return Err(RefineError::TooManyElements {
-                max: MAX_REFINED_ELEMENTS,
+                max: self.max_leaves,
             });
         }
         let Cell { corners, level, .. } = self.cells[cell];
@@ -739,13 +753,25 @@ mod tests {
     }
 
     #[test]
+    fn a_refinement_stops_at_the_callers_limit() {
+        // Two levels of a 2-element box make 128 leaves: allowed at 128, an error at 100.
+        let mesh = box_mesh([0.0; 3], [2.0, 1.0, 1.0], [2, 1, 1], "b").unwrap();
+        let fine = refine_hex8_within(&mesh, |_, _| 2, 128).unwrap();
+        assert_eq!(fine.mesh.num_elements(), 128);
+        assert_eq!(
+            refine_hex8_within(&mesh, |_, _| 2, 100).unwrap_err(),
+            RefineError::TooManyElements { max: 100 }
+        );
+    }
+
+    #[test]
     fn refine_ties_resolve_chains_through_hanging_corners() {
         // Unbalanced on purpose (balance is skipped): the right cube is split and its child
         // at the shared face's corner 0 split again. The midpoint of the edge between the
         // face's edge midpoint m01 and its centre f hangs on a level-1 leaf whose corners m01
         // and f hang on the left cube: ½ m01 + ½ f = 3/8 c0 + 3/8 c1 + 1/8 c2 + 1/8 c3.
         let mesh = box_mesh([0.0; 3], [2.0, 1.0, 1.0], [2, 1, 1], "b").unwrap();
-        let mut refiner = Refiner::new(&mesh);
+        let mut refiner = Refiner::new(&mesh, MAX_REFINED_ELEMENTS);
         let first = refiner.split(1).unwrap();
         refiner.split(first).unwrap();
         let r = refiner.finish(&mesh);

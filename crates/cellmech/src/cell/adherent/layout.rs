@@ -82,74 +82,11 @@ impl LocalRefinement {
         }
         (longest / target).log2().ceil().min(16.0) as u8
     }
-
-    /// Elements the refinement of the reference mesh `reference` (mapped by `shape`) at
-    /// `site` makes before its 2:1 balance, counted by splitting the elements the way the
-    /// octree does (each child asked again), without building them; the count stops once it
-    /// passes `limit` (then the returned value is only known to exceed it).
-    pub fn estimated_elements(
-        &self,
-        reference: &Mesh,
-        shape: &AdherentShape,
-        site: V3,
-        limit: usize,
-    ) -> usize {
-        let mut count = 0usize;
-        for block in &reference.blocks {
-            for element in block.elements() {
-                let corners: [V3; 8] = std::array::from_fn(|i| reference.nodes[element[i]]);
-                self.count_leaves(&corners, 0, shape, site, limit, &mut count);
-                if count > limit {
-                    return count;
-                }
-            }
-        }
-        count
-    }
-
-    fn count_leaves(
-        &self,
-        corners: &[V3; 8],
-        level: u8,
-        shape: &AdherentShape,
-        site: V3,
-        limit: usize,
-        count: &mut usize,
-    ) {
-        if *count > limit {
-            return;
-        }
-        let x = corners.map(|p| shape.map(p, false));
-        let wanted = (level + self.extra_levels(&x, site)).min(self.max_levels);
-        if wanted <= level {
-            *count += 1;
-            return;
-        }
-        // Trilinear sub-cubes in the reference space, corners in hex8 order.
-        use cellmech_fem::mesh::surface::HEX8_CORNERS as SIGNS;
-        let at = |xi: [f64; 3]| -> V3 {
-            let mut p = [0.0; 3];
-            for (c, s) in corners.iter().zip(SIGNS) {
-                let n = (0..3).map(|k| 0.5 * (1.0 + s[k] * xi[k])).product::<f64>();
-                for k in 0..3 {
-                    p[k] += n * c[k];
-                }
-            }
-            p
-        };
-        for child in SIGNS {
-            // The child's centre in the parent's coordinates is ±1/2; its corners ±1/2 more.
-            let child_corners: [V3; 8] = std::array::from_fn(|a| {
-                at(std::array::from_fn(|k| 0.5 * child[k] + 0.5 * SIGNS[a][k]))
-            });
-            self.count_leaves(&child_corners, level + 1, shape, site, limit, count);
-        }
-    }
 }
 
 /// Most hex8 elements a local refinement of the adherent cell may make (the default mesh
-/// has about 11 000, the finest one in the docs about 28 000): a larger estimate is an
-/// error before any refinement work.
+/// has about 11 000, the finest one in the docs about 28 000): the octree stops with an
+/// error as soon as it would pass it.
 pub const MAX_REFINED_CELL_ELEMENTS: usize = 2_000_000;
 
 /// The error for a mapped mesh with an inverted element (`min_scaled_jacobian ≤ 0`).
@@ -579,29 +516,27 @@ impl AdherentCellGeometry {
         let (mut mesh, hanging, boundary_faces) = match site_point {
             Some(s) => {
                 let refinement = params.refinement;
-                let estimate =
-                    refinement.estimated_elements(&reference, shape, s, MAX_REFINED_CELL_ELEMENTS);
-                if estimate > MAX_REFINED_CELL_ELEMENTS {
-                    return Err(fail(
-                        "refinement",
-                        format!(
-                            "expected a refinement of at most {MAX_REFINED_CELL_ELEMENTS} hex8 \
-                             elements; found one of more (element_size {} µm, \
-                             grading {} on a cell of semi-axes {:?} µm): raise \
-                             refinement.element_size or refinement.grading, or lower \
-                             refinement.max_levels",
-                            refinement.element_size, refinement.grading, shape.semi_axes
-                        ),
-                    ));
-                }
-                let refined = cellmech_fem::mesh::refine::refine_hex8_by_level(
+                let refined = cellmech_fem::mesh::refine::refine_hex8_within(
                     &reference,
                     |corners, level| {
                         let x = corners.map(|p| shape.map(p, false));
                         (level + refinement.extra_levels(&x, s)).min(refinement.max_levels)
                     },
+                    MAX_REFINED_CELL_ELEMENTS,
                 )
-                .map_err(|e| fail("refinement", e.to_string()))?;
+                .map_err(|e| match e {
+                    cellmech_fem::mesh::refine::RefineError::TooManyElements { max } => fail(
+                        "refinement",
+                        format!(
+                            "expected a refinement of at most {max} hex8 elements; found one \
+                             of more (element_size {} µm, grading {} on a cell of semi-axes \
+                             {:?} µm): raise refinement.element_size or refinement.grading, \
+                             or lower refinement.max_levels",
+                            refinement.element_size, refinement.grading, shape.semi_axes
+                        ),
+                    ),
+                    e => fail("refinement", e.to_string()),
+                })?;
                 let mut mesh = map_reference_mesh(&refined.mesh, shape);
                 // The base mesh's nodes keep their indices and positions.
                 debug_assert!(fa_nodes.iter().all(|&n| mesh.nodes[n] == base.nodes[n]));
@@ -781,31 +716,19 @@ impl AdherentCellGeometry {
 mod tests {
     use super::*;
 
-    /// The leaf count without the 2:1 balance is a lower bound of the built mesh and close
-    /// to it; a cell 1000 times longer is counted only up to the limit (fast).
+    /// A cell 1000 times longer asks the octree at the tip for ~10⁸ elements: the refinement
+    /// stops at the cell's limit with an error naming the refinement keys.
     #[test]
-    fn the_refinement_estimate_counts_the_octree_leaves() {
-        let (params, _) = super::super::params::defaults();
-        let geometry =
-            AdherentCellGeometry::build(&params, Some(IndentationSite::Apex)).expect("builds");
-        let reference = params.mesh.reference_mesh().unwrap();
-        let site = geometry.mesh.nodes[geometry.mesh.node_sets["apex"][0]];
-        let estimate =
-            params
-                .refinement
-                .estimated_elements(&reference, &params.shape, site, usize::MAX);
-        let built = geometry.mesh.num_elements();
+    fn a_refinement_beyond_the_cell_limit_is_an_error() {
+        let (mut params, _) = super::super::params::defaults();
+        params.shape.semi_axes[0] *= 1000.0;
+        let err = AdherentCellGeometry::build(&params, Some(IndentationSite::Apex))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
         assert!(
-            estimate <= built && 10 * estimate >= 8 * built,
-            "estimate {estimate}, built {built}"
+            err.contains("refinement") && err.contains("element_size"),
+            "{err}"
         );
-        let mut long = params.clone();
-        long.shape.semi_axes[0] *= 1000.0;
-        let start = std::time::Instant::now();
-        let count = long
-            .refinement
-            .estimated_elements(&reference, &long.shape, site, 1000);
-        assert!(count > 1000 && count < 1010, "{count}");
-        assert!(start.elapsed().as_secs_f64() < 1.0);
     }
 }
