@@ -16,8 +16,8 @@ use crate::dof::DofMap;
 use crate::element::KernelError;
 use crate::mesh::ElementKind;
 
-/// Largest number of DOFs of one element of any term (hex8: 24).
-pub const MAX_ELEMENT_DOFS: usize = 24;
+/// Largest number of DOFs of one element of any term (hex8: 24; a host tie: 27).
+pub const MAX_ELEMENT_DOFS: usize = 27;
 
 /// An energy term of the total potential.
 pub trait Term: Send + Sync {
