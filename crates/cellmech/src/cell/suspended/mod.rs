@@ -395,10 +395,14 @@ pub fn prestress_step(model: &SuspendedCellModel) -> Step {
 
 /// How the cytoskeleton is tied to the continuum (`shared/spec/cell-models.md`, "The
 /// hybrid model idea": a modelling choice the published findings decide).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Coupling {
     /// The MTs' interior nodes follow the cytoplasm they lie in (embedded elements).
     pub microtubules_embedded: bool,
+    /// The MTs' interior nodes are tied to the material points they lie in by elastic ties
+    /// with this foundation modulus (kPa = nN/µm², per µm of MT): an elastic foundation
+    /// (`microtubules.coupling = "foundation"`). Excludes `microtubules_embedded`.
+    pub microtubule_foundation: Option<f64>,
     /// Which interior nodes are embedded when `microtubules_embedded`.
     pub embedded_nodes: EmbeddedNodes,
     /// The centrosome node follows the cytoplasm it lies in.
@@ -430,16 +434,22 @@ pub enum EmbeddedNodes {
 
 impl Coupling {
     /// The model's embeddings (node sets `microtubule_anchors` or `microtubule_interior`,
-    /// and `centrosome`).
+    /// and `centrosome`; `microtubule_interior` with elastic ties for the foundation).
     pub fn embeddings(&self) -> Vec<crate::model::EmbedSpec> {
         let spec = |name: &str| crate::model::EmbedSpec {
             name: name.into(),
             node_set: name.into(),
             host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
             tolerance: EMBED_TOLERANCE,
+            foundation_modulus: None,
         };
         let mut out = Vec::new();
-        if self.microtubules_embedded {
+        if let Some(k) = self.microtubule_foundation {
+            out.push(crate::model::EmbedSpec {
+                foundation_modulus: Some(k),
+                ..spec("microtubule_interior")
+            });
+        } else if self.microtubules_embedded {
             out.push(spec(match self.embedded_nodes {
                 EmbeddedNodes::Alternate => "microtubule_anchors",
                 EmbeddedNodes::All => "microtubule_interior",

@@ -158,7 +158,16 @@ pub(crate) const MICROTUBULES_CLEARANCE_MARGIN: ParamDef = p(
     "choice (\"never through the nucleus\")",
 );
 /// `microtubules.coupling` (shared by the cell models).
-pub(crate) const MICROTUBULES_COUPLING: ParamDef = p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")");
+pub(crate) const MICROTUBULES_COUPLING: ParamDef = p("microtubules.coupling", K::Choice(&["free", "embedded", "foundation"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them), embedded in the cytoplasm/nucleus they lie in (they follow it exactly), or on an elastic foundation (each tied to the material point it lies at by a spring of `foundation_modulus` × its length of MT)", "choice (spec: \"The hybrid model idea\")");
+/// `microtubules.foundation_modulus` (shared by the cell models).
+pub(crate) const MICROTUBULES_FOUNDATION_MODULUS: ParamDef = p(
+    "microtubules.foundation_modulus",
+    K::Quantity(Pressure),
+    D::Absent("the cytoplasm's Young's modulus 2G(1 + ν)"),
+    POS,
+    "with `coupling = \"foundation\"`: force per length of MT per µm of slip between an MT node and the gel around it; an MT under compression then buckles at 2√(k EI) in waves of 2π(EI/k)^¼ (2.7 µm at the default: the in-vivo wavelength)",
+    "choice (Brangwynne et al. 2006, J Cell Biol 173:733: MTs laterally reinforced by the elastic cytoskeleton, k of the order of its modulus)",
+);
 /// `microtubules.embedded_nodes` (shared by the cell models).
 pub(crate) const MICROTUBULES_EMBEDDED_NODES: ParamDef = p("microtubules.embedded_nodes", K::Choice(&["alternate", "all"]), D::Word("alternate"), ANY, "with `coupling = \"embedded\"`: which interior MT nodes follow the continuum: every second one counted from the FA (no two held nodes adjacent: each span between them is two elements that bend like a free MT segment) or all (each element is a straight column between held nodes that buckles at its own Euler load, 0.03 nN: Newton fails in the prestress)", "choice ([embedded cell](embedded-elements.md#the-embedded-cell))");
 /// `microtubules.centrosome` (shared by the cell models).
@@ -375,6 +384,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             CHOICE,
         ),
         MICROTUBULES_COUPLING,
+        MICROTUBULES_FOUNDATION_MODULUS,
         MICROTUBULES_EMBEDDED_NODES,
         MICROTUBULES_CENTROSOME,
         SOLVER_STABILIZATION,
@@ -492,8 +502,14 @@ pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
 
 /// The cytoskeleton's coupling from resolved values of [`SUSPENDED_CELL`].
 pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
+    let cytoplasm_youngs_modulus =
+        2.0 * v.number("cytoplasm.shear_modulus") * (1.0 + v.number("cytoplasm.poisson_ratio"));
     super::Coupling {
         microtubules_embedded: v.word("microtubules.coupling") == "embedded",
+        microtubule_foundation: (v.word("microtubules.coupling") == "foundation").then(|| {
+            v.optional_number("microtubules.foundation_modulus")
+                .unwrap_or(cytoplasm_youngs_modulus)
+        }),
         embedded_nodes: match v.word("microtubules.embedded_nodes") {
             "all" => super::EmbeddedNodes::All,
             _ => super::EmbeddedNodes::Alternate,
