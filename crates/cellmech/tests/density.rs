@@ -137,3 +137,101 @@ fn bad_density_counts_are_errors_naming_the_key() {
     let e = message("density.extra_microtubules = 100\n");
     assert!(e.contains("cell.density.extra_microtubules"), "{e}");
 }
+
+/// The adherent cell's base mesh of the CI tests (8/2/2: 2048 hex8), no refinement.
+fn adherent(extra: usize, seed: u64) -> cellmech::cell::adherent::AdherentCellParams {
+    let mut cell = cellmech::cell::adherent::AdherentCell::default();
+    cell.params.mesh.core_divisions = 8;
+    cell.params.mesh.shell_layers = 2;
+    cell.params.mesh.outer_layers = 2;
+    cell.params.extra_bundles = extra;
+    cell.params.seed = seed;
+    cell.params
+}
+
+#[test]
+fn extra_actin_bundles_are_seeded_chords_between_new_dome_nodes_clear_of_the_nucleus() {
+    use cellmech::cell::adherent::AdherentCellGeometry;
+    let build = |extra, seed| AdherentCellGeometry::build(&adherent(extra, seed), None);
+    let g = build(12, 2024).unwrap();
+    assert_eq!(g.extra_bundles.len(), 12);
+    let base = build(0, 2024).unwrap();
+    assert!(base.extra_bundles.is_empty());
+    assert!(!base.mesh.node_sets.contains_key("extra_bundle_ends"));
+    assert_eq!(g.bundles, base.bundles);
+    assert_eq!(g.fa_nodes, base.fa_nodes);
+    let params = adherent(12, 2024);
+    let shape = params.shape;
+    let (c, e) = (shape.nucleus_centre(), shape.nucleus_semi_axes);
+    let inside_nucleus =
+        |p: [f64; 3]| (0..3).map(|k| ((p[k] - c[k]) / e[k]).powi(2)).sum::<f64>() < 1.0;
+    let dome: std::collections::BTreeSet<usize> =
+        g.mesh.node_sets["dome"].iter().copied().collect();
+    let mut used = std::collections::BTreeSet::new();
+    let shortest = base
+        .bundles
+        .iter()
+        .map(|&[a, b]| dist(base.mesh.nodes[a], base.mesh.nodes[b]))
+        .fold(f64::INFINITY, f64::min);
+    for &[a, b] in &g.extra_bundles {
+        for n in [a, b] {
+            assert!(
+                dome.contains(&n) && g.mesh.nodes[n][2] > 0.0,
+                "node {n} not on the dome"
+            );
+            assert!(!g.fa_nodes.contains(&n), "node {n} is an FA");
+            assert!(used.insert(n), "node {n} reused");
+        }
+        let (pa, pb) = (g.mesh.nodes[a], g.mesh.nodes[b]);
+        assert!(dist(pa, pb) >= 0.5 * shortest);
+        for i in 0..=200 {
+            let t = i as f64 / 200.0;
+            let p = [0, 1, 2].map(|k| pa[k] + t * (pb[k] - pa[k]));
+            assert!(!inside_nucleus(p), "AB {a}-{b} enters the nucleus");
+            assert!(
+                shape.level(p) <= 1.0 + 1e-9 && p[2] >= 0.0,
+                "AB {a}-{b} leaves the cell"
+            );
+        }
+    }
+    // Reproducible, and another seed gives other bundles.
+    assert_eq!(build(12, 2024).unwrap().extra_bundles, g.extra_bundles);
+    assert_ne!(build(12, 7).unwrap().extra_bundles, g.extra_bundles);
+    // Too many: an error naming the key.
+    let err = build(2000, 2024).unwrap_err().to_string();
+    assert!(
+        err.contains("cell.bundles.extra") && err.contains("at most"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_adherent_cell_with_extra_bundles_finds_its_prestressed_equilibrium() {
+    let text = |extra: usize| {
+        format!(
+            "title = \"adherent\"\n[cell]\nmodel = \"adherent\"\nmesh.core_divisions = 8\nmesh.shell_layers = 2\nmesh.outer_layers = 2\nbundles.extra = {extra}\n[protocol]\nkind = \"prestress\"\n[output]\nvtk_every = 0\n"
+        )
+    };
+    let mut sums = Vec::new();
+    for extra in [0, 8] {
+        let s = parse(&text(extra), "adherent.toml", std::path::Path::new(".")).unwrap();
+        let dir = out_dir(&format!("adherent-{extra}"));
+        let summary = run(&s, &dir, &mut NullObserver).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(summary.status, "completed", "{:?}", summary.error);
+        let f = summary.filaments.expect("filaments");
+        let bundles = f.families.iter().find(|x| x.family == "bundles").unwrap();
+        assert_eq!(bundles.filaments, 8 + extra);
+        assert_eq!(bundles.in_tension, 8 + extra);
+        sums.push(bundles.fa_force_sum_nn.expect("FA-end force sum"));
+    }
+    eprintln!(
+        "AB force sums at the FA ends: published {:.3} nN, +8 ABs {:.3} nN",
+        sums[0], sums[1]
+    );
+    assert!(sums[1] > sums[0]);
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+}

@@ -79,7 +79,7 @@ fn stream(seed: u64, family: u64) -> SplitMix64 {
 }
 
 /// Fisher–Yates shuffle.
-fn shuffle<T>(items: &mut [T], rng: &mut SplitMix64) {
+pub(crate) fn shuffle<T>(items: &mut [T], rng: &mut SplitMix64) {
     for i in (1..items.len()).rev() {
         let j = (rng.next_u64() % (i as u64 + 1)) as usize;
         items.swap(i, j);
@@ -89,7 +89,7 @@ fn shuffle<T>(items: &mut [T], rng: &mut SplitMix64) {
 /// Takes shuffled candidate pairs greedily, skipping a pair with a node already used
 /// (`shared`: both ends come from the same pool, so a node is used once at either end;
 /// otherwise the first and the second ends are counted separately).
-fn take_pairs(pairs: &[[usize; 2]], wanted: usize, shared: bool) -> Vec<[usize; 2]> {
+pub(crate) fn take_pairs(pairs: &[[usize; 2]], wanted: usize, shared: bool) -> Vec<[usize; 2]> {
     let mut used = [
         std::collections::HashSet::new(),
         std::collections::HashSet::new(),
