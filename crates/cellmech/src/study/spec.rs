@@ -554,20 +554,25 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
 }
 
 /// The `[cell.density]` key of each family a density axis adds filaments to.
-const DENSITY_KEYS: [(&str, &str); 3] = [
+/// (`bundles`: the adherent cell's actin bundles; not in the default list).
+const DENSITY_KEYS: [(&str, &str); 4] = [
     ("actin", "cell.density.extra_actin"),
     ("microtubule", "cell.density.extra_microtubules"),
     ("intermediate", "cell.density.extra_intermediate"),
+    ("bundles", "cell.bundles.extra"),
 ];
 
 /// The members of a `density` axis after its control: each family × each count of extra
-/// filaments (absolute numbers added to the published 60 AFs, 30 MTs, 60 IFs), one family
-/// at a time, labelled `extra-FAMILY-COUNT`.
+/// filaments (absolute numbers added to the published 60 AFs, 30 MTs, 60 IFs of the
+/// suspended cell, or 8 ABs of the adherent one), one family at a time, labelled
+/// `extra-FAMILY-COUNT`.
 fn density_members(a: &AxisSection) -> Result<Vec<Member>, String> {
-    let families = a
-        .families
-        .clone()
-        .unwrap_or_else(|| DENSITY_KEYS.iter().map(|(f, _)| f.to_string()).collect());
+    let families = a.families.clone().unwrap_or_else(|| {
+        DENSITY_KEYS[..3]
+            .iter()
+            .map(|(f, _)| f.to_string())
+            .collect()
+    });
     if families.is_empty() {
         return Err("`families`: expected at least one family".into());
     }
@@ -813,6 +818,19 @@ mod tests {
                 "extra-microtubule-30",
                 "extra-intermediate-30"
             ]
+        );
+        // The adherent cell's bundles have their own key.
+        let spec = parse(
+            "base = \"adherent-afm-apex\"\n[[axis]]\nkind = \"density\"\nfamilies = [\"bundles\"]\ncounts = [8]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let cases = spec.cases();
+        assert_eq!(cases[1].name, "extra-bundles-8");
+        assert_eq!(
+            cases[1].set,
+            [("cell.bundles.extra".to_string(), Value::Integer(8))]
         );
     }
 
