@@ -21,6 +21,7 @@ use cellmech_fem::solve::{Motion, Step};
 use cellmech_fem::term::Term;
 
 pub mod cytoskeleton;
+pub mod density;
 pub mod geometry;
 mod layout;
 mod materials;
@@ -29,6 +30,7 @@ pub mod params;
 mod tests;
 
 pub use cytoskeleton::{IfAnchorRule, MicrotubulePath};
+pub use density::DensityParams;
 pub use geometry::{
     icosidodecahedron_edges, icosidodecahedron_unit_vertices, FaOrientation, AF_COUNT, FA_COUNT,
     GOLDEN_RATIO,
@@ -52,6 +54,13 @@ pub mod family {
     /// Intermediate filaments.
     pub const INTERMEDIATE: &str = "intermediate";
 }
+
+/// Filament group of the density variant's extra AFs (family `actin`).
+pub const EXTRA_ACTIN: &str = "actin-extra";
+/// Filament group of the density variant's extra MTs (family `microtubule`).
+pub const EXTRA_MICROTUBULE: &str = "microtubule-extra";
+/// Filament group of the density variant's extra IFs (family `intermediate`).
+pub const EXTRA_INTERMEDIATE: &str = "intermediate-extra";
 
 /// Node sets of the 3-2-1 supports: all three components, y and z, z only.
 pub const SUPPORT_SETS: [(&str, [bool; 3]); 3] = [
@@ -273,9 +282,10 @@ pub fn suspended_cell_parts(
         element: FilamentElement::Truss(actin),
         enabled: components.actin,
     });
+    let fa_mts = geometry.microtubules.len();
     structures.filaments.push(microtubule_filaments(
         &m.microtubule,
-        &chains,
+        &chains[..fa_mts],
         components.microtubules,
     )?);
     structures.filaments.push(intermediate_filaments(
@@ -283,6 +293,35 @@ pub fn suspended_cell_parts(
         &geometry.intermediate_filaments,
         components.intermediate,
     )?);
+    // The density variant's extra filaments: groups of their own after the published ones
+    // (whose filament ids therefore do not change), in the same families (so `[families]`
+    // switches and scales them too), with the same materials. None by default.
+    let extra = &geometry.extra;
+    if !extra.actin.is_empty() {
+        structures.filaments.push(FilamentSpec {
+            name: EXTRA_ACTIN.into(),
+            family: family::ACTIN.into(),
+            filaments: Filament::one_per_element(extra.actin.len(), Some(FilamentEnd::Both)),
+            pairs: extra.actin.clone(),
+            element: FilamentElement::Truss(actin),
+            enabled: components.actin,
+        });
+    }
+    if chains.len() > fa_mts {
+        let mut group =
+            microtubule_filaments(&m.microtubule, &chains[fa_mts..], components.microtubules)?;
+        group.name = EXTRA_MICROTUBULE.into();
+        structures.filaments.push(group);
+    }
+    if !extra.intermediate.is_empty() {
+        let mut group = intermediate_filaments(
+            &m.intermediate,
+            &extra.intermediate,
+            components.intermediate,
+        )?;
+        group.name = EXTRA_INTERMEDIATE.into();
+        structures.filaments.push(group);
+    }
     for (set, nodes) in SUPPORT_SETS
         .iter()
         .zip(minimal_support_nodes(&mesh, 0.5 * params.nucleus_diameter))
@@ -528,7 +567,7 @@ impl SuspendedCell {
             .iter()
             .map(|(name, comps)| (name.to_string(), *comps))
             .collect();
-        let description = crate::cell::CellDescription {
+        let mut description = crate::cell::CellDescription {
             model: "suspended".into(),
             seed: params.seed,
             cell_diameter: params.cell_diameter,
@@ -566,6 +605,11 @@ impl SuspendedCell {
                 "max_if_nucleus_penetration_um": report.max_if_nucleus_penetration,
             }),
         };
+        if !params.density.is_empty() {
+            // Recorded only for a density variant, so that the published model's record
+            // is unchanged; the extras are drawn from `seed` (recorded above).
+            description.params["density"] = serde_json::json!(params.density);
+        }
         let surface_faces = parts
             .structures
             .membranes

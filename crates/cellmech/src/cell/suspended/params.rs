@@ -10,6 +10,7 @@ use crate::units::Dimension::{Dimensionless, Length, Pressure};
 use cellmech_fem::solve::{Activation, IterationMethod, Stabilization};
 
 use super::cytoskeleton::IfAnchorRule;
+use super::density::{DensityParams, MAX_EXTRA_FILAMENTS};
 use super::geometry::FaOrientation;
 use super::layout::{
     MeshResolution, SuspendedCellParams, MAX_IFS_PER_FA, MAX_MT_BOW, MAX_MT_ELEMENTS,
@@ -44,6 +45,8 @@ const ANY: Bounds = Bounds::ANY;
 /// Mesh counts: at least 1, at most 64 (64 core divisions with 64 + 64 layers is ~3.4 million
 /// hex8, beyond what one machine solves; larger values are typos).
 const MESH_COUNT: Bounds = Bounds::new(1.0, true, 64.0, true);
+/// Extra filaments of the density variant (the mesh limits the count further).
+const EXTRA: Bounds = Bounds::new(0.0, true, MAX_EXTRA_FILAMENTS as f64, true);
 const POISSON: Bounds = Bounds::new(-1.0, false, 0.5, false);
 const SPEC: &str = "spec";
 const CHOICE: &str = "choice";
@@ -264,7 +267,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             K::Seed,
             D::Seed(2024),
             ANY,
-            "seed of every random choice (MT bows, orientation search)",
+            "seed of every random choice (MT bows, orientation search, the `density.*` extra filaments)",
             CHOICE,
         ),
         p(
@@ -395,6 +398,30 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         INTERMEDIATE_PER_FA,
         INTERMEDIATE_PHASE_DEG,
         INTERMEDIATE_ANCHOR,
+        p(
+            "density.extra_actin",
+            K::Count,
+            D::Count(0),
+            EXTRA,
+            "density variant: extra prestressed AFs (same material and prestrain) through the interior, between seeded random pairs of non-FA surface nodes (each node once) whose chord misses the nucleus and is at least as long as the cortical AFs",
+            "spec (\"Studies\": density)",
+        ),
+        p(
+            "density.extra_intermediate",
+            K::Count,
+            D::Count(0),
+            EXTRA,
+            "density variant: extra slack IFs (same material and slack), straight from seeded random non-FA surface nodes to visible nucleus-surface nodes (each node once)",
+            "spec (\"Studies\": density)",
+        ),
+        p(
+            "density.extra_microtubules",
+            K::Count,
+            D::Count(0),
+            EXTRA,
+            "density variant: extra MTs from the centrosome to seeded random non-FA surface nodes (each once), curved and coupled like the FA MTs",
+            "spec (\"Studies\": density)",
+        ),
     ],
 };
 
@@ -433,6 +460,11 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         if_phase: v.number("intermediate.phase_deg").to_radians(),
         if_anchor_rule: if_anchor_rule_from_values(v),
         seed: v.seed("seed"),
+        density: DensityParams {
+            extra_actin: v.count("density.extra_actin"),
+            extra_intermediate: v.count("density.extra_intermediate"),
+            extra_microtubules: v.count("density.extra_microtubules"),
+        },
     };
     let materials = SuspendedCellMaterials {
         cytoplasm_shear_modulus: v.number("cytoplasm.shear_modulus"),
