@@ -12,6 +12,7 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 import threading
 import time
 
@@ -326,3 +327,12 @@ def test_progress_exception_is_raised_after_the_run(workdir):
 
     with pytest.raises(KeyError, match="stop here"):
         cellmech.parse(DIVERGING_BLOCK.replace('x = "-15 um"', 'x = "2 um"')).run(workdir / "boom", progress=boom)
+
+
+def test_example_script_runs(workdir):
+    script = os.path.join(os.path.dirname(__file__), "..", "..", "..", "examples", "python", "tension.py")
+    out = workdir / "example"
+    run = subprocess.run([sys.executable, script, str(out)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "completed" in run.stdout and "6.300" in run.stdout
+    assert (out / "summary.json").exists()
