@@ -306,3 +306,48 @@ fn the_adherent_afm_studies_stop_at_1_um_with_their_named_subsets_and_components
         "{text}"
     );
 }
+
+#[test]
+fn a_modulus_study_writes_its_tornado_chart() {
+    let dir = scratch("tornado");
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        STUDY.replace(
+            "[[axis]]\nkind = \"disruption\"\nfamilies = [\"microtubule\"]",
+            "[[axis]]\nkind = \"modulus\"\ncomponents = [\"cytoplasm\", \"microtubule\"]\nfactors = [0.5, 1.5]",
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = cellmech(&[
+        "study",
+        study.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(out.join("tornado.svg")).unwrap();
+    assert!(svg.starts_with("<svg"));
+    assert!(svg.contains("cytoplasm") && svg.contains("microtubule"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("![tornado.svg](tornado.svg)"), "{md}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("sensitivity"), "the chart is inlined");
+    // The Sensitivity table: a row per component, the softer cytoplasm lowers the force
+    // and the stiffer raises it.
+    let row = |c: &str| -> Vec<f64> {
+        md.lines()
+            .find(|l| l.starts_with(&format!("| {c} |")))
+            .unwrap_or_else(|| panic!("no row for {c}: {md}"))
+            .split('|')
+            .filter_map(|f| f.trim().parse().ok())
+            .collect()
+    };
+    let cytoplasm = row("cytoplasm");
+    assert_eq!(cytoplasm.len(), 3, "{md}");
+    assert!(cytoplasm[0] < 0.0 && cytoplasm[1] > 0.0, "{cytoplasm:?}");
+    assert_eq!(row("microtubule").len(), 3, "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
