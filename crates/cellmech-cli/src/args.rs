@@ -77,7 +77,7 @@ pub enum Command {
     ///
     /// STUDY is a built-in study (list them with --list) or a study file (docs/studies.md):
     /// a base scenario and axes of variants (disruption, modulus, thickness,
-    /// compressibility, grid, cases), crossed. Every case is checked before any runs;
+    /// compressibility, density, grid, cases), crossed. Every case is checked before any runs;
     /// each writes OUT/cases/NAME/ and ends with record.json, so a rerun skips finished
     /// cases and redoes interrupted ones. Failed cases are recorded with their reason and
     /// the study goes on. The report (study.csv, study.json, force-over-control.svg,

@@ -16,8 +16,8 @@ use crate::dof::DofMap;
 use crate::element::KernelError;
 use crate::mesh::ElementKind;
 
-/// Largest number of DOFs of one element of any term (hex8: 24).
-pub const MAX_ELEMENT_DOFS: usize = 24;
+/// Largest number of DOFs of one element of any term (hex8: 24; a host tie: 27).
+pub const MAX_ELEMENT_DOFS: usize = 27;
 
 /// An energy term of the total potential.
 pub trait Term: Send + Sync {
@@ -82,6 +82,14 @@ pub trait Term: Send + Sync {
 
     /// The increment failed: return to the last committed state.
     fn rollback(&mut self) {}
+
+    /// Keep a copy of the current trial state (within an increment, after Newton has
+    /// converged) so that a further attempt started from it can return to it with
+    /// [`Term::restore_trial`] if it fails. Terms without trial state need not implement it.
+    fn save_trial(&mut self) {}
+
+    /// Return to the trial state kept by the last [`Term::save_trial`].
+    fn restore_trial(&mut self) {}
 }
 
 /// Where the load program is: a term's view of the analysis time.

@@ -123,6 +123,7 @@ fn model() -> (ModelSpec, usize) {
             node_set: "bar".into(),
             host_blocks: vec!["cube".into()],
             tolerance: 1e-9,
+            foundation_modulus: None,
         }],
         hanging: refined.hanging,
     };

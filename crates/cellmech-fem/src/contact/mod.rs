@@ -108,6 +108,8 @@ pub struct RigidContact {
     program: Vec<[f64; 3]>,
     trial: ContactState,
     committed: ContactState,
+    /// A trial state kept within an increment ([`Term::save_trial`]).
+    saved_trial: Option<ContactState>,
     /// Positions of the contact points at the last committed increment (the reference ones
     /// before the first): where the status predictor looks for points the tool will reach.
     committed_positions: Vec<[f64; 3]>,
@@ -314,6 +316,7 @@ impl RigidContact {
             program,
             trial: state.clone(),
             committed: state,
+            saved_trial: None,
             last_step: 0,
             started_step: None,
             step_start: [0.0; 3],
@@ -754,6 +757,16 @@ impl ElementSet for RigidContact {
 
     fn on_rollback(&mut self) {
         self.trial = self.committed.clone();
+    }
+
+    fn on_save_trial(&mut self) {
+        self.saved_trial = Some(self.trial.clone());
+    }
+
+    fn on_restore_trial(&mut self) {
+        if let Some(saved) = &self.saved_trial {
+            self.trial = saved.clone();
+        }
     }
 }
 

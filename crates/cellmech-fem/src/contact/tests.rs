@@ -222,3 +222,49 @@ fn face_contact_spreads_a_uniform_pressure_by_area() {
     assert!(bad(&[[0, 1, 2, 3]], 5).contains("1 to 4 points"));
     assert!(bad(&[], 2).contains("empty"));
 }
+
+#[test]
+fn a_restored_trial_state_is_the_saved_one_after_an_augmentation_changed_it() {
+    // The solver keeps the trial state of a converged, damped increment before it tries to
+    // remove the viscosity; a failed try must return the contact to exactly that state.
+    let nodes = [[0.0, 0.0, 1.0]];
+    let plate = ToolShape::Plate {
+        point: [0.0, 0.0, 1.0],
+        normal: [0.0, 0.0, 1.0],
+    };
+    let mut contact = RigidContact::new(
+        "plate",
+        plate,
+        ContactKind::Frictionless,
+        vec![0],
+        nodes.to_vec(),
+        50.0,
+        1e-9,
+        vec![[0.0, 0.0, 0.2]],
+    )
+    .unwrap();
+    let map = DofMap::translational(1);
+    contact.set_load_state(&LoadState {
+        step_index: 0,
+        step_time: 0.5,
+    });
+    // The plate is 0.1 um into the node: the first augmentation activates it, the second
+    // raises its multiplier.
+    let u = [0.0; 3];
+    assert!(matches!(
+        contact.augment(&u, &map),
+        Augmentation::Updated(_)
+    ));
+    contact.save_trial();
+    let saved = contact.trial.clone();
+    assert!(matches!(
+        contact.augment(&u, &map),
+        Augmentation::Updated(_)
+    ));
+    assert_ne!(
+        contact.trial, saved,
+        "the second augmentation changed the state"
+    );
+    contact.restore_trial();
+    assert_eq!(contact.trial, saved);
+}

@@ -11,6 +11,7 @@
 
 pub mod beam;
 pub mod hex8;
+pub mod host_tie;
 pub mod membrane;
 pub mod pressure;
 pub mod set;

@@ -113,6 +113,12 @@ pub trait ElementSet: Send + Sync {
 
     /// The increment failed ([`Term::rollback`]).
     fn on_rollback(&mut self) {}
+
+    /// Keep the trial state ([`Term::save_trial`]).
+    fn on_save_trial(&mut self) {}
+
+    /// Back to the kept trial state ([`Term::restore_trial`]).
+    fn on_restore_trial(&mut self) {}
 }
 
 impl<S: ElementSet> Term for S {
@@ -171,5 +177,13 @@ impl<S: ElementSet> Term for S {
 
     fn rollback(&mut self) {
         self.on_rollback()
+    }
+
+    fn save_trial(&mut self) {
+        self.on_save_trial()
+    }
+
+    fn restore_trial(&mut self) {
+        self.on_restore_trial()
     }
 }

@@ -478,6 +478,11 @@ impl Problem {
             && viscous_force_ratio > control.convergence.residual_tolerance
         {
             let damped_u = self.u.clone();
+            // The re-solve may augment (contact multipliers, active sets): keep the damped
+            // state's terms so that a failed re-solve returns to exactly that state.
+            for term in &mut self.terms {
+                term.save_trial();
+            }
             if let Some(st) = &mut self.stabilizer {
                 st.rate = 0.0;
             }
@@ -489,6 +494,9 @@ impl Problem {
                 }
                 Err(_) => {
                     self.u = damped_u;
+                    for term in &mut self.terms {
+                        term.restore_trial();
+                    }
                     if let Some(st) = &mut self.stabilizer {
                         st.rate = rate;
                     }

@@ -20,6 +20,7 @@ use cellmech_fem::constraint::hanging::{tie_hanging_nodes, HangingTieError};
 use cellmech_fem::constraint::LinearConstraints;
 use cellmech_fem::continuum::ContinuumBlock;
 use cellmech_fem::dof::DofMap;
+use cellmech_fem::element::host_tie::{HostTie, HostTieSet};
 use cellmech_fem::linsolve::FaerSparseSolver;
 use cellmech_fem::mesh::locate::HostLocator;
 use cellmech_fem::solve::{Motion, NodalLoad, Problem, SolveError, Step};
@@ -200,7 +201,10 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
     let filaments = filaments::FilamentIndex::new(structures, mesh, terms.len())
         .map_err(BuildError::Filaments)?;
     terms.extend(structures::structure_terms(mesh, structures, &dof_map)?);
-    let (constraints, embedding) = constraints(model, &dof_map)?;
+    let (ties, tie_summaries) = foundation_ties(model)?;
+    terms.extend(ties);
+    let (constraints, mut embedding) = constraints(model, &dof_map)?;
+    embedding.extend(tie_summaries);
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
     let steps = model
         .steps
@@ -271,7 +275,13 @@ fn constraints(
     model: &ModelSpec,
     dof_map: &DofMap,
 ) -> Result<(Option<LinearConstraints>, Vec<EmbedSummary>), BuildError> {
-    if model.embedded.is_empty() && model.hanging.is_empty() {
+    let exact = || {
+        model
+            .embedded
+            .iter()
+            .filter(|s| s.foundation_modulus.is_none())
+    };
+    if exact().next().is_none() && model.hanging.is_empty() {
         return Ok((None, Vec::new()));
     }
     let mut constraints = LinearConstraints::new(dof_map.num_dofs());
@@ -279,7 +289,7 @@ fn constraints(
     let mesh = &model.mesh;
     let used = structures::enabled_structure_nodes(&model.structures, mesh.num_nodes());
     let mut summaries = Vec::new();
-    for spec in &model.embedded {
+    for spec in exact() {
         let fail = |message: String| BuildError::Embed {
             name: spec.name.clone(),
             message,
@@ -311,6 +321,80 @@ fn constraints(
         });
     }
     Ok((Some(constraints), summaries))
+}
+
+/// The elastic ties of the embeddings with a foundation modulus, one [`HostTieSet`] per
+/// spec, with their summaries. A tie's stiffness is the modulus times half the reference
+/// length of every enabled structure element through the node.
+fn foundation_ties(
+    model: &ModelSpec,
+) -> Result<(Vec<Box<dyn Term>>, Vec<EmbedSummary>), BuildError> {
+    let mesh = &model.mesh;
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    let mut summaries = Vec::new();
+    let specs: Vec<&EmbedSpec> = model
+        .embedded
+        .iter()
+        .filter(|s| s.foundation_modulus.is_some())
+        .collect();
+    if specs.is_empty() {
+        return Ok((terms, summaries));
+    }
+    let used = structures::enabled_structure_nodes(&model.structures, mesh.num_nodes());
+    let tributary = structures::enabled_tributary_lengths(&model.structures, mesh);
+    for spec in specs {
+        let modulus = spec.foundation_modulus.unwrap_or(0.0);
+        let fail = |message: String| BuildError::Embed {
+            name: spec.name.clone(),
+            message,
+        };
+        if !(modulus.is_finite() && modulus > 0.0) {
+            return Err(fail(format!(
+                "expected a positive foundation modulus; found {modulus} kPa"
+            )));
+        }
+        let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
+        let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
+        let nodes: Vec<usize> = mesh
+            .node_sets
+            .get(&spec.node_set)
+            .map(|set| set.iter().copied().filter(|&n| used[n]).collect())
+            .unwrap_or_default();
+        let mut ties = Vec::with_capacity(nodes.len());
+        let (mut shared, mut max_overshoot) = (0, 0.0f64);
+        for &n in &nodes {
+            if locator.is_host_node(n) {
+                // Already part of the continuum: it moves with it.
+                shared += 1;
+                continue;
+            }
+            let host = locator
+                .locate(mesh.nodes[n], spec.tolerance)
+                .map_err(|e| fail(e.to_string()))?;
+            max_overshoot = max_overshoot.max(host.overshoot);
+            let host_x: [[f64; 3]; 8] = std::array::from_fn(|a| mesh.nodes[host.nodes[a]]);
+            ties.push(HostTie::new(
+                n,
+                mesh.nodes[n],
+                host.nodes,
+                &host_x,
+                host.weights(),
+                modulus * tributary[n],
+            ));
+        }
+        summaries.push(EmbedSummary {
+            name: spec.name.clone(),
+            embedded_nodes: ties.len(),
+            shared_nodes: shared,
+            max_overshoot,
+        });
+        terms.push(Box::new(HostTieSet {
+            name: format!("{}_ties", spec.name),
+            ties,
+            enabled: true,
+        }));
+    }
+    Ok((terms, summaries))
 }
 
 /// The engine step of `spec`. A prescribed tied DOF (slave) is dropped when all its masters

@@ -41,8 +41,11 @@ pub struct ModelSpec {
 
 /// Nodes embedded in host continuum blocks: each node's translations follow the host
 /// element's interpolation at the node's reference position (exact linear constraints,
-/// see `docs/embedded-elements.md`); rotations of beam nodes stay free. Nodes that no
-/// enabled structure uses (a switched-off family) are skipped.
+/// see `docs/embedded-elements.md`), or, with a `foundation_modulus`, are tied to that
+/// material point by an elastic tie (`cellmech_fem::element::host_tie`) of stiffness
+/// modulus × the length of enabled structure elements the node stands for (half of each
+/// element through it). Rotations of beam nodes stay free. Nodes that no enabled structure
+/// uses (a switched-off family) are skipped.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EmbedSpec {
     /// Name for reports (e.g. `microtubule_interior`).
@@ -54,6 +57,9 @@ pub struct EmbedSpec {
     /// Largest accepted overshoot of a node outside its host, in the host's natural
     /// coordinates (`max|ξ| − 1`): points just outside a faceted curved boundary.
     pub tolerance: f64,
+    /// `None`: exact embedding. `Some(k)`: elastic ties with foundation modulus `k`
+    /// (nN/µm², force per length of fibre per µm of slip).
+    pub foundation_modulus: Option<f64>,
 }
 
 /// A node set whose shape along a test axis is reported per increment.

@@ -137,6 +137,23 @@ pub fn enabled_structure_nodes(spec: &StructuresSpec, num_nodes: usize) -> Vec<b
     used
 }
 
+/// Per node, half the reference length of every enabled filament element through it (µm):
+/// the length of fibre the node stands for (0 for nodes of no enabled filament).
+pub fn enabled_tributary_lengths(spec: &StructuresSpec, mesh: &Mesh) -> Vec<f64> {
+    let mut length = vec![0.0; mesh.num_nodes()];
+    for f in spec.filaments.iter().filter(|f| f.enabled) {
+        for &[a, b] in &f.pairs {
+            let (Some(xa), Some(xb)) = (mesh.nodes.get(a), mesh.nodes.get(b)) else {
+                continue;
+            };
+            let l = (0..3).map(|i| (xb[i] - xa[i]).powi(2)).sum::<f64>().sqrt();
+            length[a] += 0.5 * l;
+            length[b] += 0.5 * l;
+        }
+    }
+    length
+}
+
 /// The family names of the enabled groups, in order of first appearance: the order of the
 /// family terms [`structure_terms`] makes.
 pub fn filament_families(spec: &StructuresSpec) -> Vec<&str> {

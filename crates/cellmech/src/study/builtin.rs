@@ -45,6 +45,11 @@ pub const BUILTIN: &[BuiltinStudy] = &[
         text: include_str!("../../../../studies/suspended-tension-compressibility.toml"),
     },
     BuiltinStudy {
+        name: "suspended-tension-density",
+        summary: "tension to 6.3 um with 30 extra AFs, MTs or IFs at seeded new sites (4 cases)",
+        text: include_str!("../../../../studies/suspended-tension-density.toml"),
+    },
+    BuiltinStudy {
         name: "suspended-tension-coupling",
         summary: "tension to 6.3 um: each cytoskeleton coupling mode x the 8 disruption models",
         text: include_str!("../../../../studies/suspended-tension-coupling.toml"),
@@ -64,4 +69,27 @@ pub const BUILTIN: &[BuiltinStudy] = &[
 /// The built-in study with this name.
 pub fn find(name: &str) -> Option<&'static BuiltinStudy> {
     BUILTIN.iter().find(|b| b.name == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_density_study_is_built_in_with_its_four_cases() {
+        let b = find("suspended-tension-density").expect("built in");
+        let spec =
+            super::super::spec::parse(b.text, b.name, std::path::Path::new(".")).expect("parses");
+        let names: Vec<String> = spec.cases().into_iter().map(|c| c.name).collect();
+        assert_eq!(
+            names,
+            [
+                "control",
+                "extra-actin-30",
+                "extra-microtubule-30",
+                "extra-intermediate-30"
+            ]
+        );
+        assert!(b.summary.contains("4 cases"));
+    }
 }

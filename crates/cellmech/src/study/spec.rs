@@ -18,8 +18,8 @@
 //! ```
 //!
 //! Axes combine as a cross product. Member 0 of every axis is its control (nothing
-//! removed, factor 1, the base value). `disruption`, `modulus`, `thickness` and
-//! `compressibility` axes are *compared*: a case's force is divided by the force of the
+//! removed, factor 1, the base value). `disruption`, `modulus`, `thickness`,
+//! `compressibility` and `density` axes are *compared*: a case's force is divided by the force of the
 //! case that has the control on every compared axis and the same members elsewhere. A
 //! `grid` or `cases` axis is context (e.g. the coupling mode), never normalised away.
 //!
@@ -81,7 +81,8 @@ pub struct Member {
 /// One axis of variants.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Axis {
-    /// `disruption`, `modulus`, `thickness`, `compressibility`, `grid` or `cases`.
+    /// `disruption`, `modulus`, `thickness`, `compressibility`, `density`, `grid` or
+    /// `cases`.
     pub kind: String,
     /// Whether a case's force is normalised by the control on this axis.
     pub compared: bool,
@@ -143,6 +144,7 @@ struct AxisSection {
     values: Option<Vec<Value>>,
     poisson_ratio: Option<f64>,
     subsets: Option<Vec<Vec<String>>>,
+    counts: Option<Vec<i64>>,
     #[serde(default)]
     case: Vec<CaseSection>,
 }
@@ -156,11 +158,12 @@ struct CaseSection {
 }
 
 /// The axis kinds a study file accepts.
-pub const AXIS_KINDS: [&str; 6] = [
+pub const AXIS_KINDS: [&str; 7] = [
     "disruption",
     "modulus",
     "thickness",
     "compressibility",
+    "density",
     "grid",
     "cases",
 ];
@@ -432,8 +435,22 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
             a.kind
         ));
     }
+    if a.counts.is_some() && a.kind != "density" {
+        return Err(format!("`counts` does not apply to kind = \"{}\"", a.kind));
+    }
     let mut members = vec![control()];
     let compared = match a.kind.as_str() {
+        "density" => {
+            unexpected(&[
+                ("components", a.components.is_some()),
+                ("factors", a.factors.is_some()),
+                ("parameter", a.parameter.is_some()),
+                ("values", a.values.is_some()),
+                ("poisson_ratio", a.poisson_ratio.is_some()),
+            ])?;
+            members.extend(density_members(a)?);
+            true
+        }
         "disruption" => {
             unexpected(&[
                 ("components", a.components.is_some()),
@@ -640,6 +657,58 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
         compared,
         members,
     })
+}
+
+/// The `[cell.density]` key of each family a density axis adds filaments to.
+/// (`bundles`: the adherent cell's actin bundles; not in the default list).
+const DENSITY_KEYS: [(&str, &str); 4] = [
+    ("actin", "cell.density.extra_actin"),
+    ("microtubule", "cell.density.extra_microtubules"),
+    ("intermediate", "cell.density.extra_intermediate"),
+    ("bundles", "cell.bundles.extra"),
+];
+
+/// The members of a `density` axis after its control: each family × each count of extra
+/// filaments (absolute numbers added to the published 60 AFs, 30 MTs, 60 IFs of the
+/// suspended cell, or 8 ABs of the adherent one), one family at a time, labelled
+/// `extra-FAMILY-COUNT`.
+fn density_members(a: &AxisSection) -> Result<Vec<Member>, String> {
+    let families = a.families.clone().unwrap_or_else(|| {
+        DENSITY_KEYS[..3]
+            .iter()
+            .map(|(f, _)| f.to_string())
+            .collect()
+    });
+    if families.is_empty() {
+        return Err("`families`: expected at least one family".into());
+    }
+    let counts = a.counts.clone().unwrap_or_else(|| vec![30]);
+    if counts.is_empty() || counts.iter().any(|&c| c < 1) {
+        return Err(format!(
+            "`counts`: expected whole numbers ≥ 1 of extra filaments; found {counts:?}"
+        ));
+    }
+    let mut members = Vec::new();
+    for family in &families {
+        let key = DENSITY_KEYS
+            .iter()
+            .find(|(f, _)| f == family)
+            .map(|(_, k)| *k)
+            .ok_or_else(|| {
+                format!(
+                    "`families`: expected {}; found \"{family}\"",
+                    DENSITY_KEYS.map(|(f, _)| format!("\"{f}\"")).join(", ")
+                )
+            })?;
+        for &count in &counts {
+            members.push(Member {
+                label: format!("extra-{}-{count}", sanitize(family)),
+                set: vec![(key.to_string(), Value::Integer(count))],
+                scaled: None,
+            });
+        }
+    }
+    Ok(members)
 }
 
 impl StudySpec {
@@ -929,6 +998,91 @@ mod tests {
         .unwrap();
         assert_eq!(spec.axes[0].members.len(), 16);
         assert_eq!(spec.axes[0].members[2].label, "no-bundles");
+    }
+
+    #[test]
+    fn a_density_axis_adds_each_family_s_extra_filaments_one_at_a_time() {
+        let spec = study(
+            "[[axis]]\nkind = \"density\"\nfamilies = [\"actin\", \"microtubule\"]\ncounts = [10, 30]\n",
+        )
+        .unwrap();
+        assert!(spec.axes[0].compared);
+        let cases = spec.cases();
+        let names: Vec<&str> = cases.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "control",
+                "extra-actin-10",
+                "extra-actin-30",
+                "extra-microtubule-10",
+                "extra-microtubule-30"
+            ]
+        );
+        let set = |name: &str| cases.iter().find(|c| c.name == name).unwrap().set.clone();
+        assert!(set("control").is_empty());
+        assert_eq!(
+            set("extra-microtubule-30"),
+            [(
+                "cell.density.extra_microtubules".to_string(),
+                Value::Integer(30)
+            )]
+        );
+        assert_eq!(
+            set("extra-actin-10"),
+            [("cell.density.extra_actin".to_string(), Value::Integer(10))]
+        );
+        for c in &cases {
+            assert_eq!(cases[spec.control_of(&cases, c).unwrap()].name, "control");
+            // Every case is a scenario the parser accepts.
+            let doc = spec.case_document(c).unwrap();
+            crate::scenario::parse(&doc, "case", Path::new("."))
+                .unwrap_or_else(|e| panic!("{}: {e}", c.name));
+        }
+        // Defaults: the three families, 30 extra each.
+        let spec = study("[[axis]]\nkind = \"density\"\n").unwrap();
+        let names: Vec<String> = spec.cases().into_iter().map(|c| c.name).collect();
+        assert_eq!(
+            names,
+            [
+                "control",
+                "extra-actin-30",
+                "extra-microtubule-30",
+                "extra-intermediate-30"
+            ]
+        );
+        // The adherent cell's bundles have their own key.
+        let spec = parse(
+            "base = \"adherent-afm-apex\"\n[[axis]]\nkind = \"density\"\nfamilies = [\"bundles\"]\ncounts = [8]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let cases = spec.cases();
+        assert_eq!(cases[1].name, "extra-bundles-8");
+        assert_eq!(
+            cases[1].set,
+            [("cell.bundles.extra".to_string(), Value::Integer(8))]
+        );
+    }
+
+    #[test]
+    fn bad_density_axes_are_rejected_with_the_key() {
+        let err = |axes: &str| study(axes).unwrap_err().to_string();
+        let e = err("[[axis]]\nkind = \"density\"\nfamilies = [\"membrane\"]\n");
+        assert!(e.contains("`families`") && e.contains("membrane"), "{e}");
+        let e = err("[[axis]]\nkind = \"density\"\ncounts = [0]\n");
+        assert!(e.contains("`counts`"), "{e}");
+        let e = err("[[axis]]\nkind = \"density\"\ncounts = [-5]\n");
+        assert!(e.contains("`counts`"), "{e}");
+        let e = err("[[axis]]\nkind = \"density\"\ncounts = []\n");
+        assert!(e.contains("`counts`"), "{e}");
+        let e = err("[[axis]]\nkind = \"density\"\nfactors = [2.0]\n");
+        assert!(e.contains("`factors`"), "{e}");
+        let e = err("[[axis]]\nkind = \"modulus\"\ncounts = [3]\n");
+        assert!(e.contains("`counts`"), "{e}");
+        let e = err("[[axis]]\nkind = \"density\"\nfamilies = [\"actin\", \"actin\"]\n");
+        assert!(e.contains("extra-actin-30"), "{e}");
     }
 
     #[test]

@@ -115,6 +115,8 @@ pub struct AdherentCellParams {
     pub refinement: LocalRefinement,
     /// Number of ABs (≥ 1).
     pub bundles: usize,
+    /// Extra ABs of the density variant (0 by default).
+    pub extra_bundles: usize,
     /// Height of the ABs and their FAs above the substrate.
     pub bundle_height: f64,
     /// Fraction of the dome's half width at `bundle_height` the ABs are spread over.
@@ -202,6 +204,9 @@ pub struct AdherentCellGeometry {
     pub fa_nodes: Vec<usize>,
     /// ABs as `[FA node, FA node]`.
     pub bundles: Vec<[usize; 2]>,
+    /// The density variant's extra ABs as `[dome node, dome node]` (none by default; see
+    /// [`choose_extra_bundles`]).
+    pub extra_bundles: Vec<[usize; 2]>,
     /// Centrosome position (appended as a node by [`Self::append_microtubule_nodes`]).
     pub centrosome: V3,
     /// One MT per FA.
@@ -375,6 +380,72 @@ fn tie_fa_plaques(
     (ties, count)
 }
 
+/// Mixed into the seed for the extra ABs of the density variant.
+const EXTRA_BUNDLE_STREAM: u64 = 0x4445_4E53_5F41_4253;
+
+/// The density variant's `extra_bundles` ABs: straight tension-only trusses between seeded
+/// random pairs of base-mesh dome nodes (so that a local refinement keeps them) that are
+/// not FAs and lie farther than two plaque radii from every FA, each node used once. A
+/// pair is a candidate when its chord misses the nucleus (in the unit-nucleus frame) and is
+/// at least half as long as the shortest published AB; both ends lie on the convex dome
+/// above the substrate, so the chord runs inside the cell, at the periphery or through the
+/// interior. The candidates (pairs in node order) are shuffled by a SplitMix64 stream of
+/// `seed` mixed with a constant and taken greedily (`cell::suspended::density`).
+fn choose_extra_bundles(
+    params: &AdherentCellParams,
+    mesh: &Mesh,
+    base_nodes: usize,
+    fa_nodes: &[usize],
+    lengths: &[f64],
+) -> Result<Vec<[usize; 2]>, AdherentLayoutError> {
+    use crate::cell::suspended::density::{shuffle, take_pairs};
+    if params.extra_bundles == 0 {
+        return Ok(Vec::new());
+    }
+    let x = |n: usize| mesh.nodes[n];
+    let mut ends: Vec<usize> = mesh.node_sets["dome"]
+        .iter()
+        .copied()
+        .filter(|&n| {
+            n < base_nodes
+                && x(n)[2] > 1e-9
+                && fa_nodes
+                    .iter()
+                    .all(|&f| f != n && distance(x(f), x(n)) > 2.0 * params.fa_radius)
+        })
+        .collect();
+    ends.sort_unstable();
+    ends.dedup();
+    let min_length = 0.5 * lengths.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mut pairs = Vec::new();
+    for (i, &a) in ends.iter().enumerate() {
+        for &b in &ends[i + 1..] {
+            let (pa, pb) = (params.to_unit_nucleus(x(a)), params.to_unit_nucleus(x(b)));
+            if distance(x(a), x(b)) >= min_length
+                && crate::cell::suspended::cytoskeleton::segment_distance_to_origin(pa, pb) > 1.0
+            {
+                pairs.push([a, b]);
+            }
+        }
+    }
+    let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ EXTRA_BUNDLE_STREAM);
+    shuffle(&mut pairs, &mut rng);
+    let chosen = take_pairs(&pairs, params.extra_bundles, true);
+    if chosen.len() < params.extra_bundles {
+        return Err(fail(
+            "bundles.extra",
+            format!(
+                "expected cell.bundles.extra at most {} on this mesh (actin bundles between \
+                 distinct dome nodes away from the FAs, at least {min_length:.2} µm long and \
+                 clear of the nucleus); found {} (lower it or refine the mesh)",
+                chosen.len(),
+                params.extra_bundles
+            ),
+        ));
+    }
+    Ok(chosen)
+}
+
 /// Mixed into the seed for the MT bows.
 const MT_STREAM: u64 = 0x4D54_5F41_4448_4552;
 
@@ -455,6 +526,7 @@ impl AdherentCellGeometry {
         }
         let base = map_reference_mesh(&reference, shape);
         let base_elements = base.num_elements();
+        let base_nodes = base.num_nodes();
         let receptor = match params.receptor {
             Some(k) if k < fa_nodes.len() => k,
             Some(k) => {
@@ -550,7 +622,6 @@ impl AdherentCellGeometry {
         };
         let mesh_quality = mesh_report(&mesh, shape);
         check_not_inverted(mesh_quality.min_scaled_jacobian)?;
-        let (hanging, plaque_nodes) = tie_fa_plaques(&mesh, hanging, &fa_nodes, params.fa_radius);
         // ABs.
         let bundles: Vec<[usize; 2]> = (0..params.bundles)
             .map(|k| [fa_nodes[2 * k], fa_nodes[2 * k + 1]])
@@ -575,6 +646,15 @@ impl AdherentCellGeometry {
             .iter()
             .map(|&[a, b]| distance(mesh.nodes[a], mesh.nodes[b]))
             .collect();
+        // The density variant's extra ABs, and a plaque at each of their ends too.
+        let extra_bundles = choose_extra_bundles(params, &mesh, base_nodes, &fa_nodes, &lengths)?;
+        let plaque_owners: Vec<usize> = fa_nodes
+            .iter()
+            .chain(extra_bundles.iter().flatten())
+            .copied()
+            .collect();
+        let (hanging, plaque_nodes) =
+            tie_fa_plaques(&mesh, hanging, &plaque_owners, params.fa_radius);
         // MTs: the chord from the centrosome to the FA bowed sideways (horizontally).
         let centrosome = params.centrosome();
         if shape.level(centrosome) >= 1.0 || centrosome[2] <= 0.0 {
@@ -660,6 +740,11 @@ impl AdherentCellGeometry {
         }
         mesh.insert_node_set("receptor", vec![fa_nodes[receptor]]);
         mesh.insert_node_set("if_anchors", ifs.filaments.iter().map(|f| f[1]).collect());
+        if !extra_bundles.is_empty() {
+            let mut ends: Vec<usize> = extra_bundles.iter().flatten().copied().collect();
+            ends.sort_unstable();
+            mesh.insert_node_set("extra_bundle_ends", ends);
+        }
         let report = AdherentLayoutReport {
             mesh: mesh_quality,
             base_elements,
@@ -679,6 +764,7 @@ impl AdherentCellGeometry {
             boundary_faces,
             fa_nodes,
             bundles,
+            extra_bundles,
             centrosome,
             microtubules,
             intermediate_filaments: ifs.filaments,

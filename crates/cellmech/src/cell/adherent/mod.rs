@@ -25,6 +25,9 @@ use crate::cell::suspended::{
 use crate::model::filaments::{Filament, FilamentEnd};
 use crate::model::structures::{FilamentElement, FilamentSpec, MembraneSpec, StructuresSpec};
 
+/// Filament group of the density variant's extra ABs (family `bundles`).
+pub const EXTRA_BUNDLES: &str = "bundles-extra";
+
 /// Family names of the adherent cell's components (curve-column prefixes and
 /// `[families.<name>]` keys).
 pub mod family {
@@ -202,10 +205,28 @@ impl AdherentCell {
                 &geometry.intermediate_filaments,
                 on.intermediate,
             )?);
+        // The density variant's extra ABs: a group of its own after the published ones, in
+        // the family `bundles` (switched and scaled with it), same material. None by default.
+        if !geometry.extra_bundles.is_empty() {
+            structures.filaments.push(FilamentSpec {
+                name: EXTRA_BUNDLES.into(),
+                family: family::BUNDLES.into(),
+                filaments: Filament::one_per_element(
+                    geometry.extra_bundles.len(),
+                    Some(FilamentEnd::Both),
+                ),
+                pairs: geometry.extra_bundles.clone(),
+                element: FilamentElement::Truss(
+                    tension_only_law("bundles", b.youngs_modulus, b.diameter)?
+                        .with_prestrain(b.prestrain),
+                ),
+                enabled: on.bundles,
+            });
+        }
         let report = &geometry.report;
         let p = &self.params;
         let supports = vec![("bottom".to_string(), [true, true, true])];
-        let description = crate::cell::CellDescription {
+        let mut description = crate::cell::CellDescription {
             model: "adherent".into(),
             seed: p.seed,
             cell_diameter: 2.0 * p.shape.semi_axes[0],
@@ -229,6 +250,10 @@ impl AdherentCell {
             materials: serde_json::to_value(self.materials).unwrap_or_default(),
             geometry: serde_json::to_value(report).unwrap_or_default(),
         };
+        if p.extra_bundles > 0 {
+            // Recorded only for a density variant (drawn from `seed`, recorded above).
+            description.params["extra_bundles"] = serde_json::json!(p.extra_bundles);
+        }
         let prestress = crate::model::StepSpec {
             name: "prestress".into(),
             control: cellmech_fem::solve::StepControl {

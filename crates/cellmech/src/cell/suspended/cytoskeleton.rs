@@ -144,7 +144,12 @@ pub(crate) fn route_microtubules(
 }
 
 /// The curve of one MT with signed bow `bow` (fraction of the chord).
-fn route_one(routing: &MicrotubuleRouting, fa_node: usize, fa: V3, bow: f64) -> MicrotubulePath {
+pub(crate) fn route_one(
+    routing: &MicrotubuleRouting,
+    fa_node: usize,
+    fa: V3,
+    bow: f64,
+) -> MicrotubulePath {
     let c = routing.centrosome;
     let (r_c, r_f) = (norm(c), norm(fa));
     let (u_c, u_f) = (normalize(c), normalize(fa));

@@ -12,6 +12,7 @@ use cellmech_fem::mesh::generate::{sphere_mesh, GenerateError, SphereMeshSpec};
 use cellmech_fem::mesh::Mesh;
 
 use super::cytoskeleton::{self, IfAnchorRule, MicrotubulePath};
+use super::density::{self, DensityParams, MAX_EXTRA_FILAMENTS};
 use super::geometry::{self, icosidodecahedron_edges, FaOrientation, GOLDEN_RATIO};
 
 use crate::cell::vec3::{angle, norm, normalize, scale, sub, M3, V3};
@@ -102,8 +103,11 @@ pub struct SuspendedCellParams {
     /// Which nucleus-surface nodes may anchor an IF (default: the nearest to the tangent
     /// point, as the spec says).
     pub if_anchor_rule: IfAnchorRule,
-    /// Seed of every random choice (MT bows and sides, orientation search).
+    /// Seed of every random choice (MT bows and sides, orientation search, the density
+    /// variant's extra filaments).
     pub seed: u64,
+    /// Extra filaments of the density variant (none by default).
+    pub density: DensityParams,
 }
 
 impl SuspendedCellParams {
@@ -145,6 +149,14 @@ impl SuspendedCellParams {
         }
         in_count_range("ifs_per_fa", self.ifs_per_fa, 1, MAX_IFS_PER_FA)?;
         in_count_range("mt_elements", self.mt_elements, 2, MAX_MT_ELEMENTS)?;
+        let d = self.density;
+        for (key, n) in [
+            ("density.extra_actin", d.extra_actin),
+            ("density.extra_intermediate", d.extra_intermediate),
+            ("density.extra_microtubules", d.extra_microtubules),
+        ] {
+            in_count_range(key, n, 0, MAX_EXTRA_FILAMENTS)?;
+        }
         if let FaOrientation::Optimized { trials } = self.fa_orientation {
             in_count_range("fa_orientation.trials", trials, 0, MAX_ORIENTATION_TRIALS)?;
         }
@@ -342,6 +354,21 @@ pub enum CellGeometryError {
         /// The FA node.
         fa_node: usize,
     },
+    /// The mesh has fewer places for extra filaments than asked for.
+    #[error(
+        "expected {key} at most {available} on this mesh ({what}); found {requested} (lower \
+         it or refine the mesh)"
+    )]
+    TooManyExtraFilaments {
+        /// The scenario key.
+        key: &'static str,
+        /// Count asked for.
+        requested: usize,
+        /// Count that could be placed.
+        available: usize,
+        /// What the candidates are.
+        what: &'static str,
+    },
 }
 
 /// Measured quality of a built geometry (lengths in µm).
@@ -400,6 +427,9 @@ pub struct SuspendedCellGeometry {
     pub microtubules: Vec<MicrotubulePath>,
     /// IFs as `[FA node, nucleus-surface node]`, `ifs_per_fa` consecutive ones per FA.
     pub intermediate_filaments: Vec<[usize; 2]>,
+    /// The density variant's extra AFs, IFs and MTs (empty by default; see
+    /// [`density`]).
+    pub extra: density::DensityLayout,
     /// Measured quality.
     pub report: GeometryReport,
 }
@@ -457,11 +487,50 @@ impl SuspendedCellGeometry {
             params.if_phase,
             params.if_anchor_rule,
         )?;
+        let extra = density::place(
+            &density::DensityInput {
+                mesh: &mesh,
+                surface: &surface_set,
+                inner: &inner,
+                fa_nodes: &fa_nodes,
+                nucleus_radius,
+                min_actin_length: cell_radius / GOLDEN_RATIO,
+                routing: &routing,
+                seed: params.seed,
+            },
+            params.density,
+        )?;
         mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
         for (k, &n) in fa_nodes.iter().enumerate() {
             mesh.insert_node_set(format!("fa_{k}"), vec![n]);
         }
         mesh.insert_node_set("if_anchors", ifs.filaments.iter().map(|f| f[1]).collect());
+        // Node sets of the extra filaments' ends, only when there are any (the default
+        // model's mesh is unchanged).
+        for (name, nodes) in [
+            (
+                "extra_actin_ends",
+                extra.actin.iter().flatten().copied().collect::<Vec<_>>(),
+            ),
+            (
+                "extra_intermediate_ends",
+                extra.intermediate.iter().map(|f| f[0]).collect(),
+            ),
+            (
+                "extra_intermediate_anchors",
+                extra.intermediate.iter().map(|f| f[1]).collect(),
+            ),
+            (
+                "extra_microtubule_ends",
+                extra.microtubules.iter().map(|m| m.fa_node).collect(),
+            ),
+        ] {
+            if !nodes.is_empty() {
+                let mut nodes = nodes;
+                nodes.sort_unstable();
+                mesh.insert_node_set(name, nodes);
+            }
+        }
         let report = GeometryReport {
             hex8_elements: mesh.num_elements(),
             max_snap_distance: snap.max_snap_distance,
@@ -495,19 +564,23 @@ impl SuspendedCellGeometry {
             centrosome,
             microtubules,
             intermediate_filaments: ifs.filaments,
+            extra,
             report,
         })
     }
 
     /// Appends the centrosome and every MT's interior points to `mesh.nodes` (meant for a
     /// copy of [`Self::mesh`]), adds node set `centrosome`, and returns each MT's node chain:
-    /// centrosome, interior nodes from the centrosome outwards, FA node.
+    /// centrosome, interior nodes from the centrosome outwards, FA node. The FA MTs come
+    /// first, then the density variant's extra MTs (their nodes after all of the FA MTs'),
+    /// ending on their surface node.
     pub fn append_microtubule_nodes(&self, mesh: &mut Mesh) -> Vec<Vec<usize>> {
         let centrosome = mesh.nodes.len();
         mesh.nodes.push(self.centrosome);
         mesh.insert_node_set("centrosome", vec![centrosome]);
         self.microtubules
             .iter()
+            .chain(&self.extra.microtubules)
             .map(|mt| {
                 let mut chain = Vec::with_capacity(mt.points.len());
                 chain.push(centrosome);

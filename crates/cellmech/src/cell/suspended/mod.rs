@@ -21,6 +21,7 @@ use cellmech_fem::solve::{Motion, Step};
 use cellmech_fem::term::Term;
 
 pub mod cytoskeleton;
+pub mod density;
 pub mod geometry;
 mod layout;
 mod materials;
@@ -29,6 +30,7 @@ pub mod params;
 mod tests;
 
 pub use cytoskeleton::{IfAnchorRule, MicrotubulePath};
+pub use density::DensityParams;
 pub use geometry::{
     icosidodecahedron_edges, icosidodecahedron_unit_vertices, FaOrientation, AF_COUNT, FA_COUNT,
     GOLDEN_RATIO,
@@ -52,6 +54,13 @@ pub mod family {
     /// Intermediate filaments.
     pub const INTERMEDIATE: &str = "intermediate";
 }
+
+/// Filament group of the density variant's extra AFs (family `actin`).
+pub const EXTRA_ACTIN: &str = "actin-extra";
+/// Filament group of the density variant's extra MTs (family `microtubule`).
+pub const EXTRA_MICROTUBULE: &str = "microtubule-extra";
+/// Filament group of the density variant's extra IFs (family `intermediate`).
+pub const EXTRA_INTERMEDIATE: &str = "intermediate-extra";
 
 /// Node sets of the 3-2-1 supports: all three components, y and z, z only.
 pub const SUPPORT_SETS: [(&str, [bool; 3]); 3] = [
@@ -273,9 +282,10 @@ pub fn suspended_cell_parts(
         element: FilamentElement::Truss(actin),
         enabled: components.actin,
     });
+    let fa_mts = geometry.microtubules.len();
     structures.filaments.push(microtubule_filaments(
         &m.microtubule,
-        &chains,
+        &chains[..fa_mts],
         components.microtubules,
     )?);
     structures.filaments.push(intermediate_filaments(
@@ -283,6 +293,35 @@ pub fn suspended_cell_parts(
         &geometry.intermediate_filaments,
         components.intermediate,
     )?);
+    // The density variant's extra filaments: groups of their own after the published ones
+    // (whose filament ids therefore do not change), in the same families (so `[families]`
+    // switches and scales them too), with the same materials. None by default.
+    let extra = &geometry.extra;
+    if !extra.actin.is_empty() {
+        structures.filaments.push(FilamentSpec {
+            name: EXTRA_ACTIN.into(),
+            family: family::ACTIN.into(),
+            filaments: Filament::one_per_element(extra.actin.len(), Some(FilamentEnd::Both)),
+            pairs: extra.actin.clone(),
+            element: FilamentElement::Truss(actin),
+            enabled: components.actin,
+        });
+    }
+    if chains.len() > fa_mts {
+        let mut group =
+            microtubule_filaments(&m.microtubule, &chains[fa_mts..], components.microtubules)?;
+        group.name = EXTRA_MICROTUBULE.into();
+        structures.filaments.push(group);
+    }
+    if !extra.intermediate.is_empty() {
+        let mut group = intermediate_filaments(
+            &m.intermediate,
+            &extra.intermediate,
+            components.intermediate,
+        )?;
+        group.name = EXTRA_INTERMEDIATE.into();
+        structures.filaments.push(group);
+    }
     for (set, nodes) in SUPPORT_SETS
         .iter()
         .zip(minimal_support_nodes(&mesh, 0.5 * params.nucleus_diameter))
@@ -395,10 +434,14 @@ pub fn prestress_step(model: &SuspendedCellModel) -> Step {
 
 /// How the cytoskeleton is tied to the continuum (`shared/spec/cell-models.md`, "The
 /// hybrid model idea": a modelling choice the published findings decide).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Coupling {
     /// The MTs' interior nodes follow the cytoplasm they lie in (embedded elements).
     pub microtubules_embedded: bool,
+    /// The MTs' interior nodes are tied to the material points they lie in by elastic ties
+    /// with this foundation modulus (kPa = nN/µm², per µm of MT): an elastic foundation
+    /// (`microtubules.coupling = "foundation"`). Excludes `microtubules_embedded`.
+    pub microtubule_foundation: Option<f64>,
     /// Which interior nodes are embedded when `microtubules_embedded`.
     pub embedded_nodes: EmbeddedNodes,
     /// The centrosome node follows the cytoplasm it lies in.
@@ -430,16 +473,22 @@ pub enum EmbeddedNodes {
 
 impl Coupling {
     /// The model's embeddings (node sets `microtubule_anchors` or `microtubule_interior`,
-    /// and `centrosome`).
+    /// and `centrosome`; `microtubule_interior` with elastic ties for the foundation).
     pub fn embeddings(&self) -> Vec<crate::model::EmbedSpec> {
         let spec = |name: &str| crate::model::EmbedSpec {
             name: name.into(),
             node_set: name.into(),
             host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
             tolerance: EMBED_TOLERANCE,
+            foundation_modulus: None,
         };
         let mut out = Vec::new();
-        if self.microtubules_embedded {
+        if let Some(k) = self.microtubule_foundation {
+            out.push(crate::model::EmbedSpec {
+                foundation_modulus: Some(k),
+                ..spec("microtubule_interior")
+            });
+        } else if self.microtubules_embedded {
             out.push(spec(match self.embedded_nodes {
                 EmbeddedNodes::Alternate => "microtubule_anchors",
                 EmbeddedNodes::All => "microtubule_interior",
@@ -518,7 +567,7 @@ impl SuspendedCell {
             .iter()
             .map(|(name, comps)| (name.to_string(), *comps))
             .collect();
-        let description = crate::cell::CellDescription {
+        let mut description = crate::cell::CellDescription {
             model: "suspended".into(),
             seed: params.seed,
             cell_diameter: params.cell_diameter,
@@ -556,6 +605,11 @@ impl SuspendedCell {
                 "max_if_nucleus_penetration_um": report.max_if_nucleus_penetration,
             }),
         };
+        if !params.density.is_empty() {
+            // Recorded only for a density variant, so that the published model's record
+            // is unchanged; the extras are drawn from `seed` (recorded above).
+            description.params["density"] = serde_json::json!(params.density);
+        }
         let surface_faces = parts
             .structures
             .membranes

@@ -10,6 +10,7 @@ use crate::units::Dimension::{Dimensionless, Length, Pressure};
 use cellmech_fem::solve::{Activation, IterationMethod, Stabilization};
 
 use super::cytoskeleton::IfAnchorRule;
+use super::density::{DensityParams, MAX_EXTRA_FILAMENTS};
 use super::geometry::FaOrientation;
 use super::layout::{
     MeshResolution, SuspendedCellParams, MAX_IFS_PER_FA, MAX_MT_BOW, MAX_MT_ELEMENTS,
@@ -44,6 +45,8 @@ const ANY: Bounds = Bounds::ANY;
 /// Mesh counts: at least 1, at most 64 (64 core divisions with 64 + 64 layers is ~3.4 million
 /// hex8, beyond what one machine solves; larger values are typos).
 const MESH_COUNT: Bounds = Bounds::new(1.0, true, 64.0, true);
+/// Extra filaments of the density variant (the mesh limits the count further).
+const EXTRA: Bounds = Bounds::new(0.0, true, MAX_EXTRA_FILAMENTS as f64, true);
 const POISSON: Bounds = Bounds::new(-1.0, false, 0.5, false);
 const SPEC: &str = "spec";
 const CHOICE: &str = "choice";
@@ -158,7 +161,16 @@ pub(crate) const MICROTUBULES_CLEARANCE_MARGIN: ParamDef = p(
     "choice (\"never through the nucleus\")",
 );
 /// `microtubules.coupling` (shared by the cell models).
-pub(crate) const MICROTUBULES_COUPLING: ParamDef = p("microtubules.coupling", K::Choice(&["free", "embedded"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them) or embedded in the cytoplasm/nucleus they lie in", "choice (spec: \"The hybrid model idea\")");
+pub(crate) const MICROTUBULES_COUPLING: ParamDef = p("microtubules.coupling", K::Choice(&["free", "embedded", "foundation"]), D::Word("free"), ANY, "MT interior nodes: free (only the beams hold them), embedded in the cytoplasm/nucleus they lie in (they follow it exactly), or on an elastic foundation (each tied to the material point it lies at by a spring of `foundation_modulus` × its length of MT)", "choice (spec: \"The hybrid model idea\")");
+/// `microtubules.foundation_modulus` (shared by the cell models).
+pub(crate) const MICROTUBULES_FOUNDATION_MODULUS: ParamDef = p(
+    "microtubules.foundation_modulus",
+    K::Quantity(Pressure),
+    D::Absent("the cytoplasm's Young's modulus 2G(1 + ν)"),
+    POS,
+    "with `coupling = \"foundation\"`: force per length of MT per µm of slip between an MT node and the gel around it; an MT under compression then buckles at 2√(k EI) in waves of 2π(EI/k)^¼ (2.7 µm at the default: the in-vivo wavelength)",
+    "choice (Brangwynne et al. 2006, J Cell Biol 173:733: MTs laterally reinforced by the elastic cytoskeleton, k of the order of its modulus)",
+);
 /// `microtubules.embedded_nodes` (shared by the cell models).
 pub(crate) const MICROTUBULES_EMBEDDED_NODES: ParamDef = p("microtubules.embedded_nodes", K::Choice(&["alternate", "all"]), D::Word("alternate"), ANY, "with `coupling = \"embedded\"`: which interior MT nodes follow the continuum: every second one counted from the FA (no two held nodes adjacent: each span between them is two elements that bend like a free MT segment) or all (each element is a straight column between held nodes that buckles at its own Euler load, 0.03 nN: Newton fails in the prestress)", "choice ([embedded cell](embedded-elements.md#the-embedded-cell))");
 /// `microtubules.centrosome` (shared by the cell models).
@@ -255,7 +267,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             K::Seed,
             D::Seed(2024),
             ANY,
-            "seed of every random choice (MT bows, orientation search)",
+            "seed of every random choice (MT bows, orientation search, the `density.*` extra filaments)",
             CHOICE,
         ),
         p(
@@ -375,6 +387,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             CHOICE,
         ),
         MICROTUBULES_COUPLING,
+        MICROTUBULES_FOUNDATION_MODULUS,
         MICROTUBULES_EMBEDDED_NODES,
         MICROTUBULES_CENTROSOME,
         SOLVER_STABILIZATION,
@@ -385,6 +398,30 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         INTERMEDIATE_PER_FA,
         INTERMEDIATE_PHASE_DEG,
         INTERMEDIATE_ANCHOR,
+        p(
+            "density.extra_actin",
+            K::Count,
+            D::Count(0),
+            EXTRA,
+            "density variant: extra prestressed AFs (same material and prestrain) through the interior, between seeded random pairs of non-FA surface nodes (each node once) whose chord misses the nucleus and is at least as long as the cortical AFs",
+            "spec (\"Studies\": density)",
+        ),
+        p(
+            "density.extra_intermediate",
+            K::Count,
+            D::Count(0),
+            EXTRA,
+            "density variant: extra slack IFs (same material and slack), straight from seeded random non-FA surface nodes to visible nucleus-surface nodes (each node once)",
+            "spec (\"Studies\": density)",
+        ),
+        p(
+            "density.extra_microtubules",
+            K::Count,
+            D::Count(0),
+            EXTRA,
+            "density variant: extra MTs from the centrosome to seeded random non-FA surface nodes (each once), curved and coupled like the FA MTs",
+            "spec (\"Studies\": density)",
+        ),
     ],
 };
 
@@ -423,6 +460,11 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         if_phase: v.number("intermediate.phase_deg").to_radians(),
         if_anchor_rule: if_anchor_rule_from_values(v),
         seed: v.seed("seed"),
+        density: DensityParams {
+            extra_actin: v.count("density.extra_actin"),
+            extra_intermediate: v.count("density.extra_intermediate"),
+            extra_microtubules: v.count("density.extra_microtubules"),
+        },
     };
     let materials = SuspendedCellMaterials {
         cytoplasm_shear_modulus: v.number("cytoplasm.shear_modulus"),
@@ -492,8 +534,14 @@ pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
 
 /// The cytoskeleton's coupling from resolved values of [`SUSPENDED_CELL`].
 pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
+    let cytoplasm_youngs_modulus =
+        2.0 * v.number("cytoplasm.shear_modulus") * (1.0 + v.number("cytoplasm.poisson_ratio"));
     super::Coupling {
         microtubules_embedded: v.word("microtubules.coupling") == "embedded",
+        microtubule_foundation: (v.word("microtubules.coupling") == "foundation").then(|| {
+            v.optional_number("microtubules.foundation_modulus")
+                .unwrap_or(cytoplasm_youngs_modulus)
+        }),
         embedded_nodes: match v.word("microtubules.embedded_nodes") {
             "all" => super::EmbeddedNodes::All,
             _ => super::EmbeddedNodes::Alternate,

@@ -1,0 +1,278 @@
+//! Elastic ties of nodes to material points of host elements: an elastic foundation for
+//! fibres embedded in a continuum.
+//!
+//! A tied node `s` sits at natural coordinates `ξ` of a hex8 host element with nodes
+//! `x_1 … x_8`; the host material point under it is `p = Σ_i N_i(ξ) x_i`, and
+//!
+//! ```text
+//! Π = k/2 |x_s − p − d₀|²,   d₀ = X_s − Σ_i N_i(ξ) X_i
+//! ```
+//!
+//! with `k` (nN/µm) the tie's stiffness: a foundation modulus (nN/µm², force per length of
+//! fibre per unit relative displacement) times the fibre length the node stands for. The
+//! offset `d₀` is zero when `ξ` is the exact inverse map of the reference position (it is
+//! kept so that a node found a little outside a faceted boundary starts unloaded). The
+//! energy depends only on the relative position of the node and the material point, so a
+//! rigid translation of the whole costs nothing; it is exact under rigid rotation when
+//! `d₀ = 0`, and otherwise wrong by `k |d₀| |R − I|`, at the level of the location tolerance.
+//!
+//! Compared with the exact embedding of `constraint::embed` (the node *is* the material
+//! point), the tie lets the fibre move relative to the gel by `force / k`: a fibre under
+//! axial compression buckles in short waves of length `2π (EI/k)^{1/4}` at the load
+//! `2 √(k EI)` of a beam on an elastic foundation instead of being forced to shorten with the
+//! gel, and a fibre's load enters the gel along its length instead of at anchor points.
+//!
+//! Energy, residual and tangent are exact (the energy is quadratic in the positions).
+
+use super::ElementSet;
+use super::KernelError;
+
+/// DOFs of one tie: the tied node's 3 translations, then the 8 host nodes' (node-major).
+pub const HOST_TIE_DOFS: usize = 27;
+
+/// Energy, residual (27) and tangent (27×27, row-major) of one tie of stiffness `k` with
+/// host weights `weights`, its tied node and host nodes displaced by `u` (tied node first).
+/// Since `X_s − Σ N_i X_i = d₀`, the gap `x_s − p − d₀` is `u_s − Σ N_i u_i`.
+pub fn host_tie_evaluate(
+    k: f64,
+    weights: &[f64; 8],
+    u: &[f64],
+    residual: &mut [f64],
+    tangent: Option<&mut [f64]>,
+) -> Result<f64, KernelError> {
+    // Coefficient of each node in the gap.
+    let c = |a: usize| if a == 0 { 1.0 } else { -weights[a - 1] };
+    let mut g = [0.0; 3];
+    for (i, gi) in g.iter_mut().enumerate() {
+        for a in 0..9 {
+            *gi += c(a) * u[3 * a + i];
+        }
+    }
+    for a in 0..9 {
+        for i in 0..3 {
+            residual[3 * a + i] = k * c(a) * g[i];
+        }
+    }
+    if let Some(t) = tangent {
+        let n = HOST_TIE_DOFS;
+        t[..n * n].fill(0.0);
+        for a in 0..9 {
+            for b in 0..9 {
+                let kab = k * c(a) * c(b);
+                for i in 0..3 {
+                    t[(3 * a + i) * n + 3 * b + i] = kab;
+                }
+            }
+        }
+    }
+    Ok(0.5 * k * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]))
+}
+
+/// One tie of a node to a host element's material point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HostTie {
+    /// Tied node (first) and the host element's 8 nodes.
+    pub nodes: [usize; 9],
+    /// Host shape-function values at the tied node's natural coordinates.
+    pub weights: [f64; 8],
+    /// Stiffness of the tie (nN/µm).
+    pub stiffness: f64,
+    /// `X_s − Σ N_i X_i` in the reference configuration (µm).
+    pub offset: [f64; 3],
+}
+
+impl HostTie {
+    /// A tie of node `node` at reference position `x_node` to the host element with nodes
+    /// `host_nodes` at `host_x`, with interpolation weights `weights` and stiffness `k`.
+    pub fn new(
+        node: usize,
+        x_node: [f64; 3],
+        host_nodes: [usize; 8],
+        host_x: &[[f64; 3]; 8],
+        weights: [f64; 8],
+        stiffness: f64,
+    ) -> Self {
+        let mut nodes = [node; 9];
+        nodes[1..].copy_from_slice(&host_nodes);
+        let offset = std::array::from_fn(|i| {
+            x_node[i] - (0..8).map(|a| weights[a] * host_x[a][i]).sum::<f64>()
+        });
+        HostTie {
+            nodes,
+            weights,
+            stiffness,
+            offset,
+        }
+    }
+}
+
+/// A set of elastic node-to-host ties (a `Term` through [`ElementSet`]).
+#[derive(Debug, Clone)]
+pub struct HostTieSet {
+    /// Name of the set.
+    pub name: String,
+    /// The ties.
+    pub ties: Vec<HostTie>,
+    /// Whether the set takes part (a family switched off keeps its ties out).
+    pub enabled: bool,
+}
+
+impl HostTieSet {
+    /// Gap `x_s − p − d₀ = u_s − Σ N_i u_i` of tie `e` at the global displacement `u` (µm), for outputs.
+    pub fn gap(&self, e: usize, u: &[f64], dof_map: &crate::dof::DofMap) -> [f64; 3] {
+        let t = &self.ties[e];
+        std::array::from_fn(|i| {
+            let mut g = u[dof_map.dof(t.nodes[0], i)];
+            for a in 0..8 {
+                g -= t.weights[a] * u[dof_map.dof(t.nodes[a + 1], i)];
+            }
+            g
+        })
+    }
+
+    /// Largest relative displacement between a tied node and its material point (µm).
+    pub fn max_gap(&self, u: &[f64], dof_map: &crate::dof::DofMap) -> f64 {
+        (0..self.ties.len())
+            .map(|e| {
+                let g = self.gap(e, u, dof_map);
+                (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+impl ElementSet for HostTieSet {
+    const ELEMENT_DOFS: usize = HOST_TIE_DOFS;
+
+    fn set_name(&self) -> &str {
+        &self.name
+    }
+
+    fn element_count(&self) -> usize {
+        if self.enabled {
+            self.ties.len()
+        } else {
+            0
+        }
+    }
+
+    fn element_nodes(&self, e: usize) -> &[usize] {
+        &self.ties[e].nodes
+    }
+
+    fn evaluate_element(
+        &self,
+        e: usize,
+        u_e: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+    ) -> Result<f64, KernelError> {
+        let t = &self.ties[e];
+        host_tie_evaluate(t.stiffness, &t.weights, u_e, residual, tangent)
+    }
+
+    fn curve_outputs(&self, u: &[f64], dof_map: &crate::dof::DofMap) -> Vec<(String, f64)> {
+        if !self.enabled || self.ties.is_empty() {
+            return Vec::new();
+        }
+        vec![(
+            format!("{}_max_slip_um", self.name),
+            self.max_gap(u, dof_map),
+        )]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::locate::hex8_shape;
+
+    fn cube() -> [[f64; 3]; 8] {
+        // The natural-coordinate corners, in the order of `hex8_shape`.
+        crate::mesh::surface::HEX8_CORNERS
+    }
+
+    fn tie_at(xi: [f64; 3], k: f64) -> (HostTie, [[f64; 3]; 9]) {
+        let host = cube().map(|p| [2.0 * p[0] + 1.0, 1.5 * p[1], 0.5 * p[2] - 0.3]);
+        let w = hex8_shape(xi);
+        let xs: [f64; 3] = std::array::from_fn(|i| (0..8).map(|a| w[a] * host[a][i]).sum());
+        let tie = HostTie::new(0, xs, [1, 2, 3, 4, 5, 6, 7, 8], &host, w, k);
+        let mut x = [[0.0; 3]; 9];
+        x[0] = xs;
+        x[1..].copy_from_slice(&host);
+        (tie, x)
+    }
+
+    fn energy_and_residual(tie: &HostTie, u: &[f64]) -> (f64, [f64; 27], [f64; 729]) {
+        let mut r = [0.0; 27];
+        let mut t = [0.0; 729];
+        let e = host_tie_evaluate(tie.stiffness, &tie.weights, u, &mut r, Some(&mut t)).unwrap();
+        (e, r, t)
+    }
+
+    #[test]
+    fn a_node_that_follows_its_material_point_is_unloaded() {
+        // Any affine motion of the host, with the node moved to where the host's
+        // interpolation takes its material point (rotation included): no energy, no force.
+        let (tie, x) = tie_at([0.3, -0.6, 0.1], 7.0);
+        let (c, s) = (0.6f64.cos(), 0.6f64.sin());
+        let map = |p: [f64; 3]| {
+            [
+                c * p[0] - s * p[1] + 0.2 * p[2] + 3.0,
+                s * p[0] + c * p[1] - 1.0,
+                1.4 * p[2] + 0.1 * p[0],
+            ]
+        };
+        let mut u = [0.0; 27];
+        for a in 0..9 {
+            let y = map(x[a]);
+            for i in 0..3 {
+                u[3 * a + i] = y[i] - x[a][i];
+            }
+        }
+        let (e, r, _) = energy_and_residual(&tie, &u);
+        assert!(e.abs() < 1e-24, "{e}");
+        assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
+    }
+
+    #[test]
+    fn a_slip_is_resisted_by_the_stiffness_and_balanced_by_the_host() {
+        // Move the node alone by d: force −k d on it, +k N_i d on the host nodes.
+        let k = 3.0;
+        let (tie, _) = tie_at([-0.2, 0.5, 0.7], k);
+        let d = [0.1, -0.2, 0.05];
+        let mut u = [0.0; 27];
+        u[..3].copy_from_slice(&d);
+        let (e, r, _) = energy_and_residual(&tie, &u);
+        let dd = d.iter().map(|v| v * v).sum::<f64>();
+        assert!((e - 0.5 * k * dd).abs() < 1e-14);
+        for i in 0..3 {
+            // Residual = internal force = −(external force needed): k d on the node.
+            assert!((r[i] - k * d[i]).abs() < 1e-14);
+            let host: f64 = (1..9).map(|a| r[3 * a + i]).sum();
+            assert!(
+                (host + k * d[i]).abs() < 1e-13,
+                "the host takes the reaction"
+            );
+        }
+    }
+
+    #[test]
+    fn the_tangent_is_the_derivative_of_the_residual() {
+        let (tie, _) = tie_at([0.9, 0.1, -0.4], 2.5);
+        let u: Vec<f64> = (0..27)
+            .map(|i| 0.01 * ((i * 7 % 11) as f64 - 5.0))
+            .collect();
+        let (_, r0, t) = energy_and_residual(&tie, &u);
+        let h = 1e-6;
+        for b in 0..27 {
+            let mut up = u.clone();
+            up[b] += h;
+            let (_, rp, _) = energy_and_residual(&tie, &up);
+            for a in 0..27 {
+                let fd = (rp[a] - r0[a]) / h;
+                assert!((fd - t[a * 27 + b]).abs() < 1e-6, "K[{a}][{b}]");
+            }
+        }
+    }
+}
