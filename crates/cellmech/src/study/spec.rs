@@ -420,45 +420,67 @@ fn removal_sets(
     Ok(out)
 }
 
-fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
-    let unexpected = |keys: &[(&str, bool)]| -> Result<(), String> {
-        for (k, present) in keys {
-            if *present {
-                return Err(format!("`{k}` does not apply to kind = \"{}\"", a.kind));
-            }
+/// The optional keys of an axis and the kinds each applies to (`grid` and `cases` read
+/// their own keys and ignore the rest).
+const AXIS_KEYS: [(&str, &[&str]); 8] = [
+    ("families", &["disruption", "density"]),
+    ("subsets", &["disruption"]),
+    ("components", &["modulus"]),
+    ("factors", &["modulus", "thickness"]),
+    ("counts", &["density"]),
+    ("parameter", &["grid"]),
+    ("values", &["grid"]),
+    ("poisson_ratio", &["compressibility"]),
+];
+
+/// Rejects a key given for a kind it does not apply to, naming the key and where it applies
+/// (an unknown kind is left to the caller's message listing the kinds).
+fn check_keys(a: &AxisSection) -> Result<(), String> {
+    let checked = [
+        "disruption",
+        "density",
+        "modulus",
+        "thickness",
+        "compressibility",
+    ];
+    if !checked.contains(&a.kind.as_str()) {
+        return Ok(());
+    }
+    let present = [
+        a.families.is_some(),
+        a.subsets.is_some(),
+        a.components.is_some(),
+        a.factors.is_some(),
+        a.counts.is_some(),
+        a.parameter.is_some(),
+        a.values.is_some(),
+        a.poisson_ratio.is_some(),
+    ];
+    for ((key, kinds), given) in AXIS_KEYS.iter().zip(present) {
+        if given && !kinds.contains(&a.kind.as_str()) {
+            return Err(format!(
+                "`{key}` does not apply to kind = \"{}\" (only to {})",
+                a.kind,
+                kinds
+                    .iter()
+                    .map(|k| format!("\"{k}\""))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
         }
-        Ok(())
-    };
-    if a.subsets.is_some() && a.kind != "disruption" {
-        return Err(format!(
-            "`subsets` does not apply to kind = \"{}\" (only to \"disruption\")",
-            a.kind
-        ));
     }
-    if a.counts.is_some() && a.kind != "density" {
-        return Err(format!("`counts` does not apply to kind = \"{}\"", a.kind));
-    }
+    Ok(())
+}
+
+fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
+    check_keys(a)?;
     let mut members = vec![control()];
     let compared = match a.kind.as_str() {
         "density" => {
-            unexpected(&[
-                ("components", a.components.is_some()),
-                ("factors", a.factors.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             members.extend(density_members(a)?);
             true
         }
         "disruption" => {
-            unexpected(&[
-                ("components", a.components.is_some()),
-                ("factors", a.factors.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             let families = a.families.clone().unwrap_or_else(|| {
                 let names: &[&str] = if is_adherent(base) {
                     &["cortex", "bundles", "microtubule", "intermediate"]
@@ -497,12 +519,6 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
             true
         }
         "modulus" => {
-            unexpected(&[
-                ("families", a.families.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             let components = a.components.clone().unwrap_or_else(|| {
                 let names: &[&str] = if is_adherent(base) {
                     &[
@@ -550,13 +566,6 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
             true
         }
         "thickness" => {
-            unexpected(&[
-                ("families", a.families.is_some()),
-                ("components", a.components.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             // The surface layer: the suspended cell's membrane, the adherent cell's cortex.
             let layer = if is_adherent(base) {
                 "cortex"
@@ -578,13 +587,6 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
             true
         }
         "compressibility" => {
-            unexpected(&[
-                ("families", a.families.is_some()),
-                ("components", a.components.is_some()),
-                ("factors", a.factors.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-            ])?;
             let nu = a.poisson_ratio.unwrap_or(0.3);
             if !(nu > -1.0 && nu < 0.5) {
                 return Err(format!(
