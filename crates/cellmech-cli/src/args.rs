@@ -81,7 +81,8 @@ pub enum Command {
     /// each writes OUT/cases/NAME/ and ends with record.json, so a rerun skips finished
     /// cases and redoes interrupted ones. Failed cases are recorded with their reason and
     /// the study goes on. The report (study.csv, study.json, force-over-control.svg,
-    /// curves.svg, report.md, report.html) covers every case recorded in OUT.
+    /// tornado.svg for modulus axes, curves.svg, report.md, report.html) covers every
+    /// case recorded in OUT.
     ///
     /// Examples:
     ///   cellmech study --list

@@ -252,3 +252,102 @@ fn the_built_in_studies_list_and_expand() {
     );
     assert_eq!(text.lines().filter(|l| !l.starts_with(' ')).count(), 13);
 }
+
+#[test]
+fn the_adherent_afm_studies_stop_at_1_um_with_their_named_subsets_and_components() {
+    let o = cellmech(&["study", "--list"]);
+    let list = String::from_utf8_lossy(&o.stdout);
+    assert!(list.contains("adherent-afm-disruption"), "{list}");
+    assert!(list.contains("adherent-afm-modulus"), "{list}");
+    let o = cellmech(&["study", "adherent-afm-disruption", "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let cases: Vec<&str> = text.lines().filter(|l| !l.starts_with(' ')).collect();
+    assert_eq!(
+        cases,
+        [
+            "control",
+            "no-cortex",
+            "no-bundles",
+            "no-microtubule",
+            "no-intermediate",
+            "no-cortex-bundles",
+            "no-cortex-microtubule",
+            "no-bundles-intermediate",
+            "no-microtubule-intermediate",
+            "no-bundles-microtubule-intermediate",
+            "no-cortex-bundles-microtubule-intermediate"
+        ]
+    );
+    // The force is compared at 1 um: every case's indentation ends there.
+    assert_eq!(
+        text.matches("protocol.depths = [\"0.5 um\", \"1 um\"]")
+            .count(),
+        11,
+        "{text}"
+    );
+    assert!(text.contains("families.cortex.enabled = false"), "{text}");
+    let o = cellmech(&["study", "adherent-afm-modulus", "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(text.lines().filter(|l| !l.starts_with(' ')).count(), 13);
+    // The adherent cell's own parameters: its cytoplasm modulus (0.17 kPa) and its
+    // cortex and bundle families.
+    assert!(
+        text.contains("cell.cytoplasm.shear_modulus = \"0.085 kPa\""),
+        "{text}"
+    );
+    assert!(
+        text.contains("families.cortex.modulus_scale = 0.5"),
+        "{text}"
+    );
+    assert!(
+        text.contains("families.bundles.modulus_scale = 1.5"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_modulus_study_writes_its_tornado_chart() {
+    let dir = scratch("tornado");
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        STUDY.replace(
+            "[[axis]]\nkind = \"disruption\"\nfamilies = [\"microtubule\"]",
+            "[[axis]]\nkind = \"modulus\"\ncomponents = [\"cytoplasm\", \"microtubule\"]\nfactors = [0.5, 1.5]",
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = cellmech(&[
+        "study",
+        study.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(out.join("tornado.svg")).unwrap();
+    assert!(svg.starts_with("<svg"));
+    assert!(svg.contains("cytoplasm") && svg.contains("microtubule"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("![tornado.svg](tornado.svg)"), "{md}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("sensitivity"), "the chart is inlined");
+    // The Sensitivity table: a row per component, the softer cytoplasm lowers the force
+    // and the stiffer raises it.
+    let row = |c: &str| -> Vec<f64> {
+        md.lines()
+            .find(|l| l.starts_with(&format!("| {c} |")))
+            .unwrap_or_else(|| panic!("no row for {c}: {md}"))
+            .split('|')
+            .filter_map(|f| f.trim().parse().ok())
+            .collect()
+    };
+    let cytoplasm = row("cytoplasm");
+    assert_eq!(cytoplasm.len(), 3, "{md}");
+    assert!(cytoplasm[0] < 0.0 && cytoplasm[1] > 0.0, "{cytoplasm:?}");
+    assert_eq!(row("microtubule").len(), 3, "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -22,6 +22,7 @@ pub mod json_out;
 mod lines;
 pub mod plot;
 pub mod pvd;
+pub mod tornado;
 pub mod view3d;
 pub mod vtu;
 
@@ -34,6 +35,7 @@ pub use gmsh::{parse_gmsh, read_gmsh};
 pub use json_out::{write_json_atomic, JsonError};
 pub use plot::{plot_xy, PlotError, PlotSpec, Series, SeriesStyle};
 pub use pvd::PvdSeries;
+pub use tornado::{plot_tornado, TornadoBar, TornadoSpec};
 pub use view3d::{plot_model_picture, LineGroup, ModelPicture, View3d};
 pub use vtu::{
     read_data_array, read_f64_array, vtu_string, write_vtu, Field, VtuBlock, VtuError, VtuFrame,

@@ -163,12 +163,16 @@ pub fn run_with_threads(
     }
     writer.record_state(&model.problem, 0, 0, 0.0, true);
     let mut failure = None;
+    // Steps that ran to their end (a failed step's converged increments are written, but it
+    // did not reach its end).
+    let mut completed_steps = 0;
     for step in &model.steps {
         let mut tee = Tee(&mut writer, progress);
         if let Err(e) = model.problem.run_step(step, &mut tee) {
             failure = Some(e);
             break;
         }
+        completed_steps += 1;
         if let Some(e) = writer.error.take() {
             return Err(RunError::Output(e));
         }
@@ -211,6 +215,7 @@ pub fn run_with_threads(
             description,
             plan,
             &writer,
+            completed_steps,
             out_dir,
             scenario.model.output.plot_format.extension(),
         )

@@ -193,6 +193,37 @@ fn compression_test_stiffens_and_flattens_the_nucleus() {
 }
 
 #[test]
+fn a_compression_step_that_fails_is_not_reported_at_its_target() {
+    // 85 % without stabilisation fails on this cell (at about 71 %, inverted elements, then
+    // the increment falls below its minimum). Its last converged increment is kept in the
+    // curve, but it is not "the force at 85 %": only the 10 % step that finished is.
+    let s = scenario(
+        "[cell.solver]\nstabilization = \"off\"\n",
+        "kind = \"microplate-compression\"\ndeformations = [\"10%\", \"85%\"]",
+        "",
+    )
+    .unwrap();
+    let dir = out_dir("compression-fails");
+    let summary = match run(&s, &dir, &mut NullObserver) {
+        Err(cellmech::run::RunError::Analysis { summary, .. }) => *summary,
+        other => panic!(
+            "expected the 85 % step to fail, got {:?}",
+            other.map(|_| ())
+        ),
+    };
+    assert_eq!(summary.status, "failed");
+    let r = summary.protocol.expect("protocol results");
+    let at: Vec<f64> = r.at_deformations.iter().map(|(e, _)| *e).collect();
+    assert_eq!(
+        at,
+        vec![0.1],
+        "only the finished step is reported at its target"
+    );
+    let last = r.last.expect("the converged increments are kept");
+    assert!(last.strain > 0.1 && last.strain < 0.85, "{last:?}");
+}
+
+#[test]
 fn removing_any_cytoskeletal_family_still_converges() {
     let mut forces = Vec::new();
     for family in ["actin", "microtubule", "intermediate", "membrane"] {

@@ -69,11 +69,14 @@ pub struct ProtocolResults {
 }
 
 /// Computes the test curve from the writer's rows and writes its CSV and plots into `dir`.
-/// Returns `None` when the scenario has no loading protocol.
+/// Returns `None` when the scenario has no loading protocol. `completed_steps` is the number
+/// of steps that reached their end: a target deformation or depth is reported only when its
+/// step is one of them (the last converged increment of a failed step is not at the target).
 pub fn write_protocol_results(
     cell: &CellDescription,
     plan: &ProtocolPlan,
     writer: &OutputWriter,
+    completed_steps: usize,
     dir: &Path,
     plot_extension: &str,
 ) -> Result<Option<ProtocolResults>, String> {
@@ -157,7 +160,11 @@ pub fn write_protocol_results(
         apparent_modulus: None,
         files: Vec::new(),
     };
-    let Some(reference) = last_row_of(reference_step) else {
+    // The reference state is the end of its step: none when that step did not finish.
+    let Some(reference) = (reference_step < completed_steps)
+        .then(|| last_row_of(reference_step))
+        .flatten()
+    else {
         return Ok(Some(results));
     };
     results.reference_force_nn = Some(sign * f[reference]);
@@ -198,6 +205,9 @@ pub fn write_protocol_results(
         _ => Vec::new(),
     };
     for (s, target) in targets {
+        if s >= completed_steps {
+            continue;
+        }
         if let Some(r) = last_row_of(s) {
             results.at_deformations.push((target, point(r)));
         }

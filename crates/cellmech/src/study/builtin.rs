@@ -1,5 +1,5 @@
 //! The built-in studies (`cellmech study --list`): the published batteries of the
-//! suspended cell. Their text is in `studies/*.toml` of the repository.
+//! suspended and the adherent cell. Their text is in `studies/*.toml` of the repository.
 
 /// A built-in study.
 #[derive(Debug, Clone, Copy)]
@@ -53,6 +53,16 @@ pub const BUILTIN: &[BuiltinStudy] = &[
         name: "suspended-tension-coupling",
         summary: "tension to 6.3 um: each cytoskeleton coupling mode x the 8 disruption models",
         text: include_str!("../../../../studies/suspended-tension-coupling.toml"),
+    },
+    BuiltinStudy {
+        name: "adherent-afm-disruption",
+        summary: "adherent cell, AFM at the apex to 1 um with 10 combinations of AC, AB, MT and IF removed (11 cases)",
+        text: include_str!("../../../../studies/adherent-afm-disruption.toml"),
+    },
+    BuiltinStudy {
+        name: "adherent-afm-modulus",
+        summary: "adherent cell, AFM at the apex to 1 um with each component's modulus at 50 % and 150 % (13 cases)",
+        text: include_str!("../../../../studies/adherent-afm-modulus.toml"),
     },
 ];
 

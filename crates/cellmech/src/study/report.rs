@@ -1,5 +1,5 @@
 //! A study's results: `study.csv` (one row per case), `study.json`, the figures (force /
-//! control bars, overlaid curves) and a self-contained report (`report.md`, `report.html`
+//! control bars, a tornado chart per `modulus` axis, overlaid curves) and a self-contained report (`report.md`, `report.html`
 //! with the figures inlined).
 
 use std::fmt::Write as _;
@@ -78,6 +78,109 @@ pub fn rows(spec: &StudySpec, cases: &[Case], records: &[Option<CaseRecord>]) ->
             }
         })
         .collect()
+}
+
+/// One component of a `modulus` axis in the tornado chart: the force change from the
+/// control when its modulus is at the axis's smallest and largest factor.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensitivityBar {
+    /// Component (e.g. `cytoplasm`).
+    pub component: String,
+    /// (force / control − 1) × 100 at the smallest factor (`None`: the case failed or is
+    /// missing).
+    pub low_percent: Option<f64>,
+    /// The same at the largest factor.
+    pub high_percent: Option<f64>,
+}
+
+impl SensitivityBar {
+    /// Width of the bar: from the lowest to the highest of 0 (the control), low and high.
+    pub fn span(&self) -> f64 {
+        cellmech_io::TornadoBar {
+            label: String::new(),
+            low: self.low_percent,
+            high: self.high_percent,
+        }
+        .span(0.0)
+    }
+}
+
+/// The tornado data of a `modulus` axis: its smallest and largest factor and one bar per
+/// component, widest first (ties keep the axis's order). Only the cases with every other
+/// axis at its member 0 (the control, or a context axis's first member) are used.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensitivity {
+    /// Index of the axis.
+    pub axis: usize,
+    /// Smallest factor (the bars' `low` end).
+    pub low_factor: f64,
+    /// Largest factor (`high`; equal to `low_factor` when the axis has one factor, and then
+    /// only `low_percent` is set).
+    pub high_factor: f64,
+    /// Bars, widest first.
+    pub bars: Vec<SensitivityBar>,
+}
+
+/// The tornado data of every `modulus` axis of the study.
+pub fn sensitivities(spec: &StudySpec, cases: &[Case], rows: &[StudyRow]) -> Vec<Sensitivity> {
+    let mut out = Vec::new();
+    for (ai, axis) in spec.axes.iter().enumerate() {
+        if axis.kind != "modulus" {
+            continue;
+        }
+        let factors: Vec<f64> = axis
+            .members
+            .iter()
+            .filter_map(|m| m.scaled.as_ref().map(|(_, f)| *f))
+            .collect();
+        if factors.is_empty() {
+            continue;
+        }
+        let low_factor = factors.iter().copied().fold(f64::INFINITY, f64::min);
+        let high_factor = factors.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        // The change from the control of the case with `member` on this axis and member 0
+        // on every other.
+        let change = |member: usize| -> Option<f64> {
+            let i = cases.iter().position(|c| {
+                c.members
+                    .iter()
+                    .enumerate()
+                    .all(|(a, &m)| if a == ai { m == member } else { m == 0 })
+            })?;
+            rows[i].force_over_control.map(|r| (r - 1.0) * 100.0)
+        };
+        let mut bars: Vec<SensitivityBar> = Vec::new();
+        for (mi, member) in axis.members.iter().enumerate() {
+            let Some((component, factor)) = &member.scaled else {
+                continue;
+            };
+            let k = match bars.iter().position(|b| &b.component == component) {
+                Some(k) => k,
+                None => {
+                    bars.push(SensitivityBar {
+                        component: component.clone(),
+                        low_percent: None,
+                        high_percent: None,
+                    });
+                    bars.len() - 1
+                }
+            };
+            if *factor == low_factor {
+                bars[k].low_percent = change(mi);
+            } else if *factor == high_factor {
+                bars[k].high_percent = change(mi);
+            }
+        }
+        // Widest on top; a stable sort keeps the axis's order among equal spans.
+        bars.sort_by(|a, b| b.span().total_cmp(&a.span()));
+        out.push(Sensitivity {
+            axis: ai,
+            low_factor,
+            high_factor,
+            bars,
+        });
+    }
+    out
 }
 
 /// The filament counts the study table shows.
@@ -188,6 +291,43 @@ pub fn write_report(
             figures.push("force-over-control.svg".to_string());
         }
     }
+    let sensitivity = sensitivities(spec, cases, &rows);
+    for sens in &sensitivity {
+        if !sens
+            .bars
+            .iter()
+            .any(|b| b.low_percent.is_some() || b.high_percent.is_some())
+        {
+            continue;
+        }
+        let name = if sensitivity.len() == 1 {
+            "tornado.svg".to_string()
+        } else {
+            format!("tornado-axis{}.svg", sens.axis)
+        };
+        let path = out.join(&name);
+        cellmech_io::plot_tornado(
+            &path,
+            &cellmech_io::TornadoSpec {
+                title: format!("{}: sensitivity", spec.title),
+                value_label: "force change from control (%)".into(),
+                low_label: format!("modulus x {}", sens.low_factor),
+                high_label: format!("modulus x {}", sens.high_factor),
+                bars: sens
+                    .bars
+                    .iter()
+                    .map(|b| cellmech_io::TornadoBar {
+                        label: b.component.clone(),
+                        low: b.low_percent,
+                        high: b.high_percent,
+                    })
+                    .collect(),
+                reference: 0.0,
+            },
+        )
+        .map_err(|e| err(e.to_string()))?;
+        figures.push(name);
+    }
     let series: Vec<Series> = cases
         .iter()
         .zip(records)
@@ -285,6 +425,29 @@ pub fn write_report(
             r.wall_time_s
         );
     }
+    for sens in &sensitivity {
+        let _ = writeln!(
+            md,
+            "\n## Sensitivity (axis {})\n\nForce change from the control (%), widest span first (the tornado chart).\n",
+            sens.axis
+        );
+        let _ = writeln!(
+            md,
+            "| component | modulus x {} | modulus x {} | span |",
+            sens.low_factor, sens.high_factor
+        );
+        let _ = writeln!(md, "|---|---|---|---|");
+        for b in &sens.bars {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {:.1} |",
+                b.component,
+                opt(b.low_percent, 1),
+                opt(b.high_percent, 1),
+                b.span()
+            );
+        }
+    }
     let failed: Vec<&StudyRow> = rows.iter().filter(|r| r.status == "failed").collect();
     if !failed.is_empty() {
         let _ = writeln!(md, "\n## Failed cases\n");
@@ -329,4 +492,134 @@ pub fn write_report(
         .map_err(|e| err(e.to_string()))?;
     files.push("report.html".to_string());
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn record(case: &Case, force: Option<f64>) -> CaseRecord {
+        CaseRecord {
+            name: case.name.clone(),
+            labels: case.labels.clone(),
+            set: Vec::new(),
+            status: if force.is_some() {
+                "completed"
+            } else {
+                "failed"
+            }
+            .into(),
+            error: force.is_none().then(|| "stopped".to_string()),
+            seed: None,
+            force_nn: force,
+            displacement_um: Some(1.0),
+            nucleus_strain: None,
+            nucleus_strain_from_reference: None,
+            filaments: Default::default(),
+            at_deformations: Vec::new(),
+            iterations: 3,
+            factorizations: 1,
+            wall_time_s: 0.5,
+            curve: Vec::new(),
+        }
+    }
+
+    /// A modulus study with made-up forces (control 2 nN).
+    fn study(forces: &[(&str, Option<f64>)]) -> (StudySpec, Vec<Case>, Vec<StudyRow>) {
+        let spec = crate::study::spec::parse(
+            "base = \"suspended-tension\"\n[[axis]]\nkind = \"modulus\"\n\
+             components = [\"cytoplasm\", \"nucleus\", \"actin\"]\nfactors = [1.5, 0.5]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let cases = spec.cases();
+        let records: Vec<Option<CaseRecord>> = cases
+            .iter()
+            .map(|c| {
+                let f = forces
+                    .iter()
+                    .find(|(n, _)| *n == c.name)
+                    .map_or(Some(2.0), |(_, f)| *f);
+                Some(record(c, f))
+            })
+            .collect();
+        let rows = rows(&spec, &cases, &records);
+        (spec, cases, rows)
+    }
+
+    #[test]
+    fn the_tornado_takes_each_component_at_its_low_and_high_factor_widest_first() {
+        let (spec, cases, rows) = study(&[
+            ("control", Some(2.0)),
+            ("cytoplasm-x0p5", Some(1.4)), // -30 %
+            ("cytoplasm-x1p5", Some(2.5)), // +25 %
+            ("nucleus-x0p5", Some(1.98)),  // -1 %
+            ("nucleus-x1p5", Some(2.02)),  // +1 %
+            ("actin-x0p5", Some(1.0)),     // -50 %
+            ("actin-x1p5", Some(2.2)),     // +10 %
+        ]);
+        let s = sensitivities(&spec, &cases, &rows);
+        assert_eq!(s.len(), 1);
+        let s = &s[0];
+        // Factors listed high first: low is still the smallest.
+        assert_eq!((s.low_factor, s.high_factor), (0.5, 1.5));
+        let names: Vec<&str> = s.bars.iter().map(|b| b.component.as_str()).collect();
+        assert_eq!(names, ["actin", "cytoplasm", "nucleus"]);
+        let close = |a: Option<f64>, b: f64| (a.unwrap() - b).abs() < 1e-9;
+        assert!(close(s.bars[0].low_percent, -50.0), "{:?}", s.bars[0]);
+        assert!(close(s.bars[0].high_percent, 10.0), "{:?}", s.bars[0]);
+        assert!(close(s.bars[1].low_percent, -30.0));
+        assert!(close(s.bars[1].high_percent, 25.0));
+        assert!(close(s.bars[2].low_percent, -1.0));
+        assert!(close(s.bars[2].high_percent, 1.0));
+        assert!((s.bars[0].span() - 60.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_failed_case_leaves_its_end_of_the_bar_empty() {
+        let (spec, cases, rows) = study(&[
+            ("cytoplasm-x0p5", None),
+            ("cytoplasm-x1p5", Some(3.0)), // +50 %
+        ]);
+        let s = &sensitivities(&spec, &cases, &rows)[0];
+        assert_eq!(s.bars[0].component, "cytoplasm");
+        assert_eq!(s.bars[0].low_percent, None);
+        assert!((s.bars[0].high_percent.unwrap() - 50.0).abs() < 1e-9);
+        // The others did not change the force.
+        assert_eq!(s.bars[1].span(), 0.0);
+    }
+
+    #[test]
+    fn the_tornado_chart_is_in_the_report_of_a_modulus_study_only() {
+        let dir = std::env::temp_dir().join(format!("cellmech-tornado-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let (spec, cases, _) = study(&[("actin-x0p5", Some(1.0))]);
+        let records: Vec<Option<CaseRecord>> =
+            cases.iter().map(|c| Some(record(c, Some(2.0)))).collect();
+        let files = write_report(&spec, &cases, &records, &dir).unwrap();
+        assert!(files.contains(&"tornado.svg".to_string()), "{files:?}");
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        assert!(md.contains("![tornado.svg](tornado.svg)"), "{md}");
+        assert!(md.contains("## Sensitivity"), "{md}");
+        let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+        assert!(html.contains("sensitivity"));
+        // A disruption study has none.
+        let spec = crate::study::spec::parse(
+            "base = \"suspended-tension\"\n[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\"]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let cases = spec.cases();
+        let records: Vec<Option<CaseRecord>> =
+            cases.iter().map(|c| Some(record(c, Some(2.0)))).collect();
+        let out = dir.join("disruption");
+        std::fs::create_dir_all(&out).unwrap();
+        let files = write_report(&spec, &cases, &records, &out).unwrap();
+        assert!(!files.iter().any(|f| f.starts_with("tornado")), "{files:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

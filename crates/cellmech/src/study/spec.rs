@@ -73,6 +73,9 @@ pub struct Member {
     pub label: String,
     /// Dotted scenario keys and their values.
     pub set: Vec<(String, Value)>,
+    /// `modulus` axes: the component whose modulus this member scales, and the factor
+    /// (`None` for the control and on other axes).
+    pub scaled: Option<(String, f64)>,
 }
 
 /// One axis of variants.
@@ -140,6 +143,7 @@ struct AxisSection {
     parameter: Option<String>,
     values: Option<Vec<Value>>,
     poisson_ratio: Option<f64>,
+    subsets: Option<Vec<Vec<String>>>,
     counts: Option<Vec<i64>>,
     #[serde(default)]
     case: Vec<CaseSection>,
@@ -307,7 +311,17 @@ fn control() -> Member {
     Member {
         label: "control".into(),
         set: Vec::new(),
+        scaled: None,
     }
+}
+
+/// Whether the base scenario (with the study-wide keys) is the adherent cell.
+fn is_adherent(base: &toml::Table) -> bool {
+    base.get("cell")
+        .and_then(Value::as_table)
+        .and_then(|c| c.get("model"))
+        .and_then(Value::as_str)
+        == Some("adherent")
 }
 
 /// The base's value of a `[cell]` quantity (its declared default when the base omits it),
@@ -315,13 +329,13 @@ fn control() -> Member {
 fn base_cell_number(base: &toml::Table, key: &str) -> Result<f64, String> {
     let text = toml::to_string(base).map_err(|e| e.to_string())?;
     let root = toml::de::DeTable::parse(&text).map_err(|e| e.to_string())?;
-    let values = read_section(
-        root.get_ref(),
-        &crate::cell::suspended::params::SUSPENDED_CELL,
-        &["model"],
-        &[],
-    )
-    .map_err(|e| format!("the base's [cell]: `{}`: {}", e.key, e.message))?;
+    let table = if is_adherent(base) {
+        &crate::cell::adherent::params::ADHERENT_CELL
+    } else {
+        &crate::cell::suspended::params::SUSPENDED_CELL
+    };
+    let values = read_section(root.get_ref(), table, &["model"], &[])
+        .map_err(|e| format!("the base's [cell]: `{}`: {}", e.key, e.message))?;
     Ok(values.number(key))
 }
 
@@ -341,41 +355,139 @@ fn factors(a: &AxisSection) -> Result<Vec<f64>, String> {
     Ok(f)
 }
 
-fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
-    let unexpected = |keys: &[(&str, bool)]| -> Result<(), String> {
-        for (k, present) in keys {
-            if *present {
-                return Err(format!("`{k}` does not apply to kind = \"{}\"", a.kind));
-            }
-        }
-        Ok(())
+/// The sets of families a disruption axis removes, each in the order of `families`:
+/// `subsets` as listed (each entry a non-empty list of names among `families`), or every
+/// non-empty subset, smallest first.
+fn removal_sets(
+    families: &[String],
+    subsets: Option<&[Vec<String>]>,
+) -> Result<Vec<Vec<String>>, String> {
+    let Some(subsets) = subsets else {
+        let n = families.len();
+        let mut masks: Vec<u32> = (1..(1u32 << n)).collect();
+        masks.sort_by_key(|&m| {
+            (
+                m.count_ones(),
+                (0..n).filter(|i| m & (1 << i) != 0).collect::<Vec<_>>(),
+            )
+        });
+        return Ok(masks
+            .into_iter()
+            .map(|m| {
+                (0..n)
+                    .filter(|i| m & (1 << i) != 0)
+                    .map(|i| families[i].clone())
+                    .collect()
+            })
+            .collect());
     };
-    if a.counts.is_some() && a.kind != "density" {
-        return Err(format!("`counts` does not apply to kind = \"{}\"", a.kind));
+    if subsets.is_empty() {
+        return Err(
+            "`subsets`: expected a non-empty list of family lists such as [[\"cortex\"], [\"cortex\", \"microtubule\"]]; found []"
+                .into(),
+        );
     }
+    let mut out: Vec<Vec<String>> = Vec::with_capacity(subsets.len());
+    for (k, entry) in subsets.iter().enumerate() {
+        if entry.is_empty() {
+            return Err(format!(
+                "`subsets[{k}]`: expected at least one family name; found [] (the control is always included)"
+            ));
+        }
+        let mut indices = Vec::with_capacity(entry.len());
+        for name in entry {
+            let i = families.iter().position(|f| f == name).ok_or_else(|| {
+                format!(
+                    "`subsets[{k}]` = {entry:?}: \"{name}\" is not among `families` {families:?}"
+                )
+            })?;
+            if indices.contains(&i) {
+                return Err(format!(
+                    "`subsets[{k}]` = {entry:?}: \"{name}\" is listed twice"
+                ));
+            }
+            indices.push(i);
+        }
+        indices.sort_unstable();
+        let set: Vec<String> = indices.iter().map(|&i| families[i].clone()).collect();
+        if let Some(j) = out.iter().position(|o| *o == set) {
+            return Err(format!(
+                "`subsets[{k}]` = {entry:?}: the same families as `subsets[{j}]`"
+            ));
+        }
+        out.push(set);
+    }
+    Ok(out)
+}
+
+/// The optional keys of an axis and the kinds each applies to (`grid` and `cases` read
+/// their own keys and ignore the rest).
+const AXIS_KEYS: [(&str, &[&str]); 8] = [
+    ("families", &["disruption", "density"]),
+    ("subsets", &["disruption"]),
+    ("components", &["modulus"]),
+    ("factors", &["modulus", "thickness"]),
+    ("counts", &["density"]),
+    ("parameter", &["grid"]),
+    ("values", &["grid"]),
+    ("poisson_ratio", &["compressibility"]),
+];
+
+/// Rejects a key given for a kind it does not apply to, naming the key and where it applies
+/// (an unknown kind is left to the caller's message listing the kinds).
+fn check_keys(a: &AxisSection) -> Result<(), String> {
+    let checked = [
+        "disruption",
+        "density",
+        "modulus",
+        "thickness",
+        "compressibility",
+    ];
+    if !checked.contains(&a.kind.as_str()) {
+        return Ok(());
+    }
+    let present = [
+        a.families.is_some(),
+        a.subsets.is_some(),
+        a.components.is_some(),
+        a.factors.is_some(),
+        a.counts.is_some(),
+        a.parameter.is_some(),
+        a.values.is_some(),
+        a.poisson_ratio.is_some(),
+    ];
+    for ((key, kinds), given) in AXIS_KEYS.iter().zip(present) {
+        if given && !kinds.contains(&a.kind.as_str()) {
+            return Err(format!(
+                "`{key}` does not apply to kind = \"{}\" (only to {})",
+                a.kind,
+                kinds
+                    .iter()
+                    .map(|k| format!("\"{k}\""))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
+    check_keys(a)?;
     let mut members = vec![control()];
     let compared = match a.kind.as_str() {
         "density" => {
-            unexpected(&[
-                ("components", a.components.is_some()),
-                ("factors", a.factors.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             members.extend(density_members(a)?);
             true
         }
         "disruption" => {
-            unexpected(&[
-                ("components", a.components.is_some()),
-                ("factors", a.factors.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             let families = a.families.clone().unwrap_or_else(|| {
-                vec!["actin".into(), "microtubule".into(), "intermediate".into()]
+                let names: &[&str] = if is_adherent(base) {
+                    &["cortex", "bundles", "microtubule", "intermediate"]
+                } else {
+                    &["actin", "microtubule", "intermediate"]
+                };
+                names.iter().map(|s| s.to_string()).collect()
             });
             if families.is_empty() || families.len() > 6 {
                 return Err(format!(
@@ -383,20 +495,11 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
                     families.len()
                 ));
             }
-            // Every non-empty subset, smallest first, in the listed order.
-            let n = families.len();
-            let mut subsets: Vec<u32> = (1..(1u32 << n)).collect();
-            subsets.sort_by_key(|&m| {
-                (
-                    m.count_ones(),
-                    (0..n).filter(|i| m & (1 << i) != 0).collect::<Vec<_>>(),
-                )
-            });
-            for mask in subsets {
-                let removed: Vec<&String> = (0..n)
-                    .filter(|i| mask & (1 << i) != 0)
-                    .map(|i| &families[i])
-                    .collect();
+            let mut seen = std::collections::BTreeSet::new();
+            if let Some(f) = families.iter().find(|f| !seen.insert(f.as_str())) {
+                return Err(format!("`families`: \"{f}\" is listed twice"));
+            }
+            for removed in removal_sets(&families, a.subsets.as_deref())? {
                 members.push(Member {
                     label: format!(
                         "no-{}",
@@ -410,29 +513,37 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
                         .iter()
                         .map(|f| (format!("families.{f}.enabled"), Value::Boolean(false)))
                         .collect(),
+                    scaled: None,
                 });
             }
             true
         }
         "modulus" => {
-            unexpected(&[
-                ("families", a.families.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
             let components = a.components.clone().unwrap_or_else(|| {
-                [
-                    "cytoplasm",
-                    "nucleus",
-                    "membrane",
-                    "actin",
-                    "microtubule",
-                    "intermediate",
-                ]
-                .map(String::from)
-                .to_vec()
+                let names: &[&str] = if is_adherent(base) {
+                    &[
+                        "cytoplasm",
+                        "nucleus",
+                        "cortex",
+                        "bundles",
+                        "microtubule",
+                        "intermediate",
+                    ]
+                } else {
+                    &[
+                        "cytoplasm",
+                        "nucleus",
+                        "membrane",
+                        "actin",
+                        "microtubule",
+                        "intermediate",
+                    ]
+                };
+                names.iter().map(|s| s.to_string()).collect()
             });
+            if components.is_empty() {
+                return Err("`components`: expected at least one component; found []".into());
+            }
             for c in &components {
                 for &f in &factors(a)? {
                     let set = match CONTINUUM_MODULI.iter().find(|(name, _)| name == c) {
@@ -448,40 +559,34 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
                     members.push(Member {
                         label: factor_label(c, f),
                         set,
+                        scaled: Some((c.clone(), f)),
                     });
                 }
             }
             true
         }
         "thickness" => {
-            unexpected(&[
-                ("families", a.families.is_some()),
-                ("components", a.components.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-                ("poisson_ratio", a.poisson_ratio.is_some()),
-            ])?;
-            let key = "membrane.thickness";
-            let v = base_cell_number(base, key)?;
+            // The surface layer: the suspended cell's membrane, the adherent cell's cortex.
+            let layer = if is_adherent(base) {
+                "cortex"
+            } else {
+                "membrane"
+            };
+            let key = format!("{layer}.thickness");
+            let v = base_cell_number(base, &key)?;
             for &f in &factors(a)? {
                 members.push(Member {
-                    label: factor_label("membrane-thickness", f),
+                    label: factor_label(&format!("{layer}-thickness"), f),
                     set: vec![(
                         format!("cell.{key}"),
                         Value::String(format!("{} um", v * f)),
                     )],
+                    scaled: None,
                 });
             }
             true
         }
         "compressibility" => {
-            unexpected(&[
-                ("families", a.families.is_some()),
-                ("components", a.components.is_some()),
-                ("factors", a.factors.is_some()),
-                ("parameter", a.parameter.is_some()),
-                ("values", a.values.is_some()),
-            ])?;
             let nu = a.poisson_ratio.unwrap_or(0.3);
             if !(nu > -1.0 && nu < 0.5) {
                 return Err(format!(
@@ -494,6 +599,7 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
                     .iter()
                     .map(|k| (k.to_string(), Value::Float(nu)))
                     .collect(),
+                scaled: None,
             });
             true
         }
@@ -516,6 +622,7 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
                         label_of(&v)
                     ),
                     set: vec![(parameter.clone(), v)],
+                    scaled: None,
                 });
             }
             false
@@ -531,6 +638,7 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
                 members.push(Member {
                     label: sanitize(&c.name),
                     set: flatten(&c.set),
+                    scaled: None,
                 });
             }
             false
@@ -598,6 +706,7 @@ fn density_members(a: &AxisSection) -> Result<Vec<Member>, String> {
             members.push(Member {
                 label: format!("extra-{}-{count}", sanitize(family)),
                 set: vec![(key.to_string(), Value::Integer(count))],
+                scaled: None,
             });
         }
     }
@@ -766,6 +875,131 @@ mod tests {
             err("[[axis]]\nkind = \"compressibility\"\npoisson_ratio = 0.7\n")
                 .contains("poisson_ratio")
         );
+    }
+
+    #[test]
+    fn a_named_list_of_subsets_gives_those_removals_in_order() {
+        let spec = study(
+            "[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\", \"microtubule\", \"intermediate\"]\n\
+             subsets = [[\"microtubule\"], [\"intermediate\", \"actin\"], [\"actin\", \"microtubule\", \"intermediate\"]]\n",
+        )
+        .unwrap();
+        let cases = spec.cases();
+        let names: Vec<&str> = cases.iter().map(|c| c.name.as_str()).collect();
+        // Listed order; names inside an entry in the order of `families`.
+        assert_eq!(
+            names,
+            [
+                "control",
+                "no-microtubule",
+                "no-actin-intermediate",
+                "no-actin-microtubule-intermediate"
+            ]
+        );
+        let removed = |name: &str| -> Vec<String> {
+            let case = cases.iter().find(|c| c.name == name).unwrap();
+            case.set
+                .iter()
+                .filter(|(k, v)| k.ends_with(".enabled") && v.as_bool() == Some(false))
+                .map(|(k, _)| k.clone())
+                .collect()
+        };
+        assert_eq!(
+            removed("no-actin-intermediate"),
+            ["families.actin.enabled", "families.intermediate.enabled"]
+        );
+        assert_eq!(removed("no-microtubule"), ["families.microtubule.enabled"]);
+        assert!(removed("control").is_empty());
+        // Every case is compared with the control.
+        for c in &cases {
+            assert_eq!(spec.control_of(&cases, c), Some(0));
+        }
+    }
+
+    #[test]
+    fn bad_subsets_are_rejected_naming_the_key_and_the_entry() {
+        let err = |subsets: &str| {
+            study(&format!(
+                "[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\", \"microtubule\"]\nsubsets = {subsets}\n"
+            ))
+            .unwrap_err()
+            .to_string()
+        };
+        let e = err("[[\"actin\"], [\"cortex\"]]");
+        assert!(
+            e.contains("`subsets[1]`") && e.contains("\"cortex\"") && e.contains("`families`"),
+            "{e}"
+        );
+        let e = err("[[\"actin\"], []]");
+        assert!(
+            e.contains("`subsets[1]`") && e.contains("at least one"),
+            "{e}"
+        );
+        let e = err("[]");
+        assert!(e.contains("`subsets`"), "{e}");
+        let e = err("[[\"actin\", \"actin\"]]");
+        assert!(e.contains("`subsets[0]`") && e.contains("twice"), "{e}");
+        let e = err("[[\"microtubule\", \"actin\"], [\"actin\", \"microtubule\"]]");
+        assert!(
+            e.contains("`subsets[1]`") && e.contains("`subsets[0]`"),
+            "{e}"
+        );
+        let e = err("[\"actin\"]");
+        assert!(e.contains("subsets"), "{e}");
+        // Only a disruption axis takes subsets.
+        let e = study("[[axis]]\nkind = \"modulus\"\nsubsets = [[\"actin\"]]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`subsets`") && e.contains("modulus"), "{e}");
+        // The error names the study file.
+        assert!(e.starts_with("test: axis[0]"), "{e}");
+    }
+
+    #[test]
+    fn the_adherent_cell_has_its_own_families_and_moduli() {
+        let spec = parse(
+            "title = \"t\"\nbase = \"adherent-afm-apex\"\n\
+             [[axis]]\nkind = \"modulus\"\n[[axis]]\nkind = \"disruption\"\nsubsets = [[\"cortex\"]]\n\
+             [[axis]]\nkind = \"thickness\"\nfactors = [2.0]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let labels: Vec<&str> = spec.axes[0]
+            .members
+            .iter()
+            .map(|m| m.label.as_str())
+            .collect();
+        assert_eq!(labels.len(), 13);
+        for c in [
+            "cytoplasm",
+            "nucleus",
+            "cortex",
+            "bundles",
+            "microtubule",
+            "intermediate",
+        ] {
+            assert!(labels.contains(&format!("{c}-x0p5").as_str()), "{labels:?}");
+        }
+        let set = &spec.axes[0].members[1].set;
+        assert_eq!(
+            spec.axes[0].members[1].scaled,
+            Some(("cytoplasm".into(), 0.5))
+        );
+        assert_eq!(set[0].0, "cell.cytoplasm.shear_modulus");
+        assert_eq!(set[0].1.as_str(), Some("0.085 kPa"));
+        assert_eq!(spec.axes[1].members[1].label, "no-cortex");
+        assert_eq!(spec.axes[2].members[1].set[0].0, "cell.cortex.thickness");
+        assert_eq!(spec.axes[2].members[1].set[0].1.as_str(), Some("0.4 um"));
+        // The default disruption families of the adherent cell.
+        let spec = parse(
+            "base = \"adherent-afm-apex\"\n[[axis]]\nkind = \"disruption\"\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        assert_eq!(spec.axes[0].members.len(), 16);
+        assert_eq!(spec.axes[0].members[2].label, "no-bundles");
     }
 
     #[test]
