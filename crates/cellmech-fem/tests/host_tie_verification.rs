@@ -76,14 +76,7 @@ fn model(tied: bool) -> Model {
             .map(|(i, &n)| {
                 let xi = hex8_inverse_map(&host_x, coords[n]).unwrap();
                 let share = if i == 0 || i == ELEMENTS { 0.5 } else { 1.0 };
-                HostTie::new(
-                    n,
-                    coords[n],
-                    host_nodes,
-                    &host_x,
-                    hex8_shape(xi),
-                    K_FOUNDATION * h * share,
-                )
+                HostTie::new(n, host_nodes, hex8_shape(xi), K_FOUNDATION * h * share)
             })
             .collect();
         HostTieSet {

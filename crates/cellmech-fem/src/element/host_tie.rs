@@ -77,31 +77,20 @@ pub struct HostTie {
     pub weights: [f64; 8],
     /// Stiffness of the tie (nN/µm).
     pub stiffness: f64,
-    /// `X_s − Σ N_i X_i` in the reference configuration (µm).
-    pub offset: [f64; 3],
 }
 
 impl HostTie {
-    /// A tie of node `node` at reference position `x_node` to the host element with nodes
-    /// `host_nodes` at `host_x`, with interpolation weights `weights` and stiffness `k`.
-    pub fn new(
-        node: usize,
-        x_node: [f64; 3],
-        host_nodes: [usize; 8],
-        host_x: &[[f64; 3]; 8],
-        weights: [f64; 8],
-        stiffness: f64,
-    ) -> Self {
+    /// A tie of node `node` to the host element with nodes `host_nodes`, with interpolation
+    /// weights `weights` (at the node's natural coordinates) and stiffness `stiffness`. The
+    /// reference offset `d₀` never enters the kernel (the gap is `u_s − Σ N_i u_i`), so it is
+    /// not stored.
+    pub fn new(node: usize, host_nodes: [usize; 8], weights: [f64; 8], stiffness: f64) -> Self {
         let mut nodes = [node; 9];
         nodes[1..].copy_from_slice(&host_nodes);
-        let offset = std::array::from_fn(|i| {
-            x_node[i] - (0..8).map(|a| weights[a] * host_x[a][i]).sum::<f64>()
-        });
         HostTie {
             nodes,
             weights,
             stiffness,
-            offset,
         }
     }
 }
@@ -196,7 +185,7 @@ mod tests {
         let host = cube().map(|p| [2.0 * p[0] + 1.0, 1.5 * p[1], 0.5 * p[2] - 0.3]);
         let w = hex8_shape(xi);
         let xs: [f64; 3] = std::array::from_fn(|i| (0..8).map(|a| w[a] * host[a][i]).sum());
-        let tie = HostTie::new(0, xs, [1, 2, 3, 4, 5, 6, 7, 8], &host, w, k);
+        let tie = HostTie::new(0, [1, 2, 3, 4, 5, 6, 7, 8], w, k);
         let mut x = [[0.0; 3]; 9];
         x[0] = xs;
         x[1..].copy_from_slice(&host);

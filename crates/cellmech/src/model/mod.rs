@@ -372,12 +372,9 @@ fn foundation_ties(
                 .locate(mesh.nodes[n], spec.tolerance)
                 .map_err(|e| fail(e.to_string()))?;
             max_overshoot = max_overshoot.max(host.overshoot);
-            let host_x: [[f64; 3]; 8] = std::array::from_fn(|a| mesh.nodes[host.nodes[a]]);
             ties.push(HostTie::new(
                 n,
-                mesh.nodes[n],
                 host.nodes,
-                &host_x,
                 host.weights(),
                 modulus * tributary[n],
             ));
