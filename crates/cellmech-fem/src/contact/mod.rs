@@ -423,6 +423,20 @@ impl RigidContact {
             .fold(0.0, f64::max)
     }
 
+    /// Smallest signed gap between the tool where it is now and its contact points where
+    /// they were at the last committed increment, bonded or not (`None` when no point is in
+    /// the tool's reach). At a committed state it is the actual gap. During a trial it is
+    /// the gap the tool's motion alone makes, without the body's response to the contact:
+    /// a tool moving onto a body at rest sees it fall linearly through 0 at first contact,
+    /// which is what a step's stop condition needs (the actual gap stays near 0 once the
+    /// contact holds the body, whatever the tool's travel).
+    pub fn min_gap(&self) -> Option<f64> {
+        self.committed_positions
+            .iter()
+            .filter_map(|x| self.shape.gap(x, &self.trial.offset).map(|g| g.value))
+            .reduce(f64::min)
+    }
+
     /// The violation the augmentations must bring below the tolerance: per element, the
     /// largest bond gap, or the penetration averaged over the element's points with their
     /// surface shares (for a node, its own penetration). A bilinear face cannot follow a
@@ -669,6 +683,8 @@ impl ElementSet for RigidContact {
             scalar_name(&self.name, ToolScalar::MaxPenetration),
             self.max_violation(u, dof_map),
         ));
+        let gap = self.min_gap().unwrap_or(f64::NAN);
+        out.push((scalar_name(&self.name, ToolScalar::MinGap), gap));
         out
     }
 
@@ -781,6 +797,11 @@ pub enum ToolScalar {
     ForceAlongMotion,
     /// Largest penetration or bond gap of its contact nodes (µm).
     MaxPenetration,
+    /// Smallest signed gap between the tool and its contact points (µm; negative:
+    /// penetration; NaN when no point is in the tool's reach), measured from where the
+    /// points were at the last committed increment ([`RigidContact::min_gap`]): linear in
+    /// the tool's travel until first contact, so a step can stop exactly there.
+    MinGap,
 }
 
 /// The name (with its unit) of a tool's scalar result: the one definition of the
@@ -792,6 +813,7 @@ pub fn scalar_name(tool: &str, scalar: ToolScalar) -> String {
         ToolScalar::Force(a) => format!("{tool}_force_{}_nN", AXES[a.min(2)]),
         ToolScalar::ForceAlongMotion => format!("{tool}_force_along_motion_nN"),
         ToolScalar::MaxPenetration => format!("{tool}_max_penetration_um"),
+        ToolScalar::MinGap => format!("{tool}_min_gap_um"),
     }
 }
 

@@ -21,7 +21,7 @@ pub use control::{
 pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};
-pub use problem::{Problem, Timings};
+pub use problem::{Problem, Timings, JUMP_WIDTH};
 pub use stabilize::StabilizationReport;
 pub use step::{Monitor, Motion, NodalLoad, Step, StopCondition};
 

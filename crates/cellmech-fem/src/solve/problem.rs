@@ -89,6 +89,12 @@ pub struct Problem {
     pub(super) stabilizer: Option<Stabilizer>,
 }
 
+/// Width (in step time) below which the bracket around a stop condition's crossing is taken
+/// to hold a jump of the monitored quantity rather than a root: the step then ends at the
+/// first converged state beyond it (1e-6 of the step: below any physical resolution of a
+/// tool's travel, and far above the round-off of the step time).
+pub const JUMP_WIDTH: f64 = 1e-6;
+
 impl Problem {
     /// Declares the model size (e.g. its bounding-box diagonal, µm). Newton then also
     /// accepts an increment whose correction is below round-off of the coordinates
@@ -313,11 +319,20 @@ impl Problem {
         let mut g_prev = gap(self);
         let mut beyond: Option<(f64, f64)> = None;
         let mut overshoots = 0;
+        // Accepted increments in a row that stayed short of the crossing (the end beyond it
+        // kept): after two, the next aim is the bracket's middle, not the regula falsi's.
+        let mut kept = 0;
+        // Set when the bracket around the crossing is narrower than JUMP_WIDTH and the
+        // monitor is still not within tolerance: it jumps across the target there (a contact
+        // force as the next node touches), and the step ends at the first converged state
+        // beyond the jump.
+        let mut across_jump = false;
+        let mut ended_in_jump = false;
         let reached = |g: Option<f64>| match (&step.stop, g) {
             (Some(s), Some(g)) => g.abs() <= s.tolerance,
             _ => false,
         };
-        while time < 1.0 && !reached(g_prev) {
+        while time < 1.0 && !reached(g_prev) && !ended_in_jump {
             if time + dt > 1.0 - 1e-12 {
                 dt = 1.0 - time;
             }
@@ -345,9 +360,14 @@ impl Problem {
             let outcome = self.newton_increment(&target_u, &target_f, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
                 let g = gap(self).unwrap_or(g0);
-                if g.abs() > stop.tolerance && g.signum() != g0.signum() && overshoots < 60 {
+                if !across_jump
+                    && g.abs() > stop.tolerance
+                    && g.signum() != g0.signum()
+                    && overshoots < 60
+                {
                     // Overshot the target: reject, and aim at the crossing (regula falsi).
                     overshoots += 1;
+                    kept = 0;
                     for term in &mut self.terms {
                         term.rollback();
                     }
@@ -408,9 +428,23 @@ impl Problem {
                     if iterations <= control.easy_iterations {
                         dt = (dt * control.growth).min(control.max_increment);
                     }
+                    let g_before = g_prev;
                     g_prev = gap(self);
                     if let (Some((t_beyond, g_beyond)), Some(g)) = (beyond, g_prev) {
-                        if g != g_beyond {
+                        let crossed = g_before.is_some_and(|g0| g0.signum() != g.signum());
+                        if across_jump && (crossed || time >= t_beyond) {
+                            ended_in_jump = !reached(g_prev);
+                        } else if !reached(g_prev) && t_beyond - time <= JUMP_WIDTH {
+                            // One last increment, to the converged side beyond the jump.
+                            across_jump = true;
+                            dt = t_beyond - time;
+                        } else if kept >= 2 {
+                            // The regula falsi keeps creeping from one side (a monitor that
+                            // is flat, or a step function of the time): halve the bracket.
+                            kept += 1;
+                            dt = 0.5 * (t_beyond - time);
+                        } else if g != g_beyond {
+                            kept += 1;
                             dt = (t_beyond - time) * (g / (g - g_beyond)).clamp(0.02, 1.0);
                         }
                     }
@@ -438,7 +472,7 @@ impl Problem {
                 }
             }
         }
-        if let (Some(stop), Some(g)) = (&step.stop, g_prev) {
+        if let (Some(stop), Some(g), false) = (&step.stop, g_prev, ended_in_jump) {
             if g.abs() > stop.tolerance {
                 return Err(SolveError::TargetNotReached {
                     step: step.name.clone(),

@@ -295,3 +295,85 @@ fn bfgs_reaches_the_same_equilibrium_with_fewer_factorisations() {
     assert!((1.0 + xb - 1.04).abs() < 1e-7 && (yb - 0.78).abs() < 1e-7);
     assert!(bfgs < newton, "BFGS {bfgs} factorisations, Newton {newton}");
 }
+
+/// A monitor that jumps: 1 below `at`, 10 from there on, read from DOF `dof`.
+struct Staircase {
+    dof: usize,
+    at: f64,
+}
+
+impl Term for Staircase {
+    fn name(&self) -> &str {
+        "staircase"
+    }
+    fn num_elements(&self) -> usize {
+        0
+    }
+    fn element_dofs(&self, _e: usize, _dof_map: &DofMap, _dofs: &mut [usize]) -> usize {
+        0
+    }
+    fn evaluate(
+        &self,
+        _e: usize,
+        _u_e: &[f64],
+        _residual: &mut [f64],
+        _tangent: Option<&mut [f64]>,
+    ) -> Result<f64, crate::element::KernelError> {
+        Ok(0.0)
+    }
+    fn scalar_outputs(&self, u: &[f64], _dof_map: &DofMap) -> Vec<(String, f64)> {
+        let value = if u[self.dof] < self.at { 1.0 } else { 10.0 };
+        vec![("stairs".into(), value)]
+    }
+}
+
+#[test]
+fn a_stop_condition_across_a_jump_ends_at_the_first_state_beyond_it() {
+    // The monitor jumps from 1 to 10 at an end displacement of 0.37 um; the target 5 lies in
+    // the jump. The step ends just beyond it (within JUMP_WIDTH of the 1 um travel), in a
+    // few dozen increments: the bracket is halved once the regula falsi creeps.
+    let nodes = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [3.0, 0.0, 0.0],
+    ];
+    let pairs = [[0, 1], [1, 2], [2, 3]];
+    let terms: Vec<Box<dyn Term>> = vec![
+        Box::new(springs(&nodes, &pairs, 2.0)),
+        Box::new(Staircase { dof: 9, at: 0.37 }),
+    ];
+    let mut p = Problem::new(
+        DofMap::translational(4),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut step = Step::new("to-the-jump");
+    step.prescribed = (0..3).map(|c| (c, Motion::Hold)).collect();
+    step.prescribed
+        .extend([(9, Motion::By(1.0)), (10, Motion::Hold), (11, Motion::Hold)]);
+    for node in 1..3 {
+        step.prescribed
+            .extend([(3 * node + 1, Motion::Hold), (3 * node + 2, Motion::Hold)]);
+    }
+    step.control.initial_increment = 0.1;
+    step.control.max_increment = 0.1;
+    step.stop = Some(StopCondition {
+        monitor: Monitor::TermScalar("stairs".into()),
+        target: 5.0,
+        tolerance: 0.1,
+    });
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    let end = p.u()[9];
+    assert!(
+        (0.37..=0.37 + 2.0 * JUMP_WIDTH).contains(&end),
+        "ended at {end}"
+    );
+    assert!(
+        rec.increments.len() < 40,
+        "{} increments",
+        rec.increments.len()
+    );
+}

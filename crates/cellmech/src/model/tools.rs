@@ -59,6 +59,11 @@ pub struct ToolMotion {
     pub movement: [f64; 3],
     /// Stop the step where the force along the motion reaches this value.
     pub until_force: Option<ForceTarget>,
+    /// Stop the step where the tool first touches the body: its smallest gap
+    /// (`<tool>_min_gap_um`) reaches 0 within this tolerance (µm). The gap is linear in the
+    /// travel until then, so the stop is found in one or two increments, where a force
+    /// target sees only zeros until contact.
+    pub until_contact: Option<f64>,
 }
 
 /// A force target ending a step.
@@ -150,13 +155,23 @@ pub fn tool_program(tool: &str, steps: &[Vec<ToolMotion>]) -> Vec<[f64; 3]> {
 /// the steps; tools not moved in a step hold).
 pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactError> {
     let motions: Vec<Vec<ToolMotion>> = model.steps.iter().map(|s| s.tools.clone()).collect();
+    let held = nodes_with_stiffness(model);
     model
         .tools
         .iter()
+        .filter(|tool| {
+            // A tool on the nodes of a switched-off filament family only (e.g. the plates'
+            // companions on the MT nodes without MTs) has nothing to touch.
+            let nodes = contact_nodes(&model.mesh, &tool.node_set);
+            !tool.faces.is_empty() || nodes.is_empty() || nodes.iter().any(|&n| held[n])
+        })
         .map(|tool| {
             let program = tool_program(&tool.name, &motions);
             let term = if tool.faces.is_empty() {
-                let nodes = contact_nodes(&model.mesh, &tool.node_set);
+                let nodes: Vec<usize> = contact_nodes(&model.mesh, &tool.node_set)
+                    .into_iter()
+                    .filter(|&n| held[n])
+                    .collect();
                 let reference = nodes.iter().map(|&n| model.mesh.nodes[n]).collect();
                 RigidContact::new(
                     tool.name.clone(),
@@ -186,12 +201,28 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
         .collect()
 }
 
+/// Per node, whether an element holds it: a continuum element or an enabled filament or
+/// membrane (the nodes of a switched-off family are held by nothing).
+fn nodes_with_stiffness(model: &ModelSpec) -> Vec<bool> {
+    let mesh = &model.mesh;
+    let mut held = super::structures::enabled_structure_nodes(&model.structures, mesh.num_nodes());
+    for block in &mesh.blocks {
+        for &n in &block.connectivity {
+            if let Some(h) = held.get_mut(n) {
+                *h = true;
+            }
+        }
+    }
+    held
+}
+
 fn contact_nodes(mesh: &Mesh, set: &str) -> Vec<usize> {
     mesh.node_sets.get(set).cloned().unwrap_or_default()
 }
 
-/// The stop condition of a step whose tool has `until_force`: the step ends where the
-/// tool's force along its motion reaches the target.
+/// The stop condition of a step whose tool has `until_contact` (the step ends where the
+/// tool first touches) or `until_force`: the step ends where the tool's force along its
+/// motion reaches the target.
 ///
 /// When the motion is along a coordinate axis the monitor is the force component on that
 /// axis (`<tool>_force_z_nN`, target multiplied by the motion's sign): unlike
@@ -200,6 +231,13 @@ fn contact_nodes(mesh: &Mesh, set: &str) -> Vec<usize> {
 /// reverse (retraction after a push).
 pub fn stop_condition(spec: &StepSpec) -> Option<StopCondition> {
     spec.tools.iter().find_map(|m| {
+        if let Some(tolerance) = m.until_contact {
+            return Some(StopCondition {
+                monitor: Monitor::TermScalar(scalar_name(&m.tool, ToolScalar::MinGap)),
+                target: 0.0,
+                tolerance,
+            });
+        }
         let target = m.until_force?;
         let nonzero: Vec<usize> = (0..3).filter(|&c| m.movement[c] != 0.0).collect();
         let (monitor, value) = match nonzero.as_slice() {

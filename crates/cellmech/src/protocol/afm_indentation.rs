@@ -396,6 +396,7 @@ impl AfmIndentation {
                     value,
                     tolerance: 0.05 * value,
                 }),
+                until_contact: None,
             }],
         };
         let steps = &mut cell.model.steps;

@@ -239,6 +239,8 @@ impl MicropipetteTension {
                 normal,
                 radius,
             },
+            super::Approach::ContactForce,
+            false,
             self.contact_force,
             self.max_increment,
         );

@@ -1,9 +1,10 @@
-//! Microplate compression: prestress → approach until the moving plate feels
-//! `contact_force` → compress to each deformation of the diameter in turn. Bonded plates.
+//! Microplate compression: prestress → approach (each plate until it touches the cell, or
+//! both until the moving plate feels `contact_force`) → compress to each deformation of the
+//! diameter in turn. Bonded plates.
 
 use cellmech_fem::contact::ToolShape;
 
-use super::{PoleTest, ProtocolError, ProtocolPlan};
+use super::{Approach, PoleTest, ProtocolError, ProtocolPlan};
 use crate::cell::BuiltCell;
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::Dimensionless;
@@ -21,6 +22,15 @@ pub const MICROPLATE_COMPRESSION: ParamTable = ParamTable {
             doc: "deformations of the diameter at which to report, increasing",
             source: "spec",
         },
+        super::APPROACH,
+        ParamDef {
+            key: "filament_contact",
+            kind: K::Choice(&["on", "off"]),
+            default: D::Word("on"),
+            bounds: Bounds::ANY,
+            doc: "the plates also push the free filament nodes (interior MT nodes, held only by their beams), frictionless: no filament passes through a plate",
+            source: "choice (rigid plates; docs/suspended-cell-validation.md)",
+        },
         super::CONTACT_FORCE,
         super::MAX_INCREMENT,
     ],
@@ -31,7 +41,11 @@ pub const MICROPLATE_COMPRESSION: ParamTable = ParamTable {
 pub struct MicroplateCompression {
     /// Deformations of the diameter, increasing, in (0, 0.9).
     pub deformations: Vec<f64>,
-    /// Force that counts as touching (nN).
+    /// How the plates reach the cell.
+    pub approach: Approach,
+    /// Whether the plates push the free filament nodes.
+    pub filament_contact: bool,
+    /// Force that counts as touching with `Approach::ContactForce` (nN).
     pub contact_force: f64,
     /// Largest increment of the loading steps.
     pub max_increment: f64,
@@ -49,6 +63,8 @@ impl MicroplateCompression {
     pub fn from_values(v: &ParamValues) -> Self {
         MicroplateCompression {
             deformations: v.list("deformations").to_vec(),
+            approach: Approach::from_word(v.word("approach")),
+            filament_contact: v.word("filament_contact") == "on",
             contact_force: v.number("contact_force"),
             max_increment: v.number("max_increment"),
         }
@@ -73,6 +89,8 @@ impl MicroplateCompression {
             cell,
             ["bottom_plate", "top_plate"],
             |point, normal| ToolShape::Plate { point, normal },
+            self.approach,
+            self.filament_contact,
             self.contact_force,
             self.max_increment,
         );

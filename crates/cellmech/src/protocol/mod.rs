@@ -301,6 +301,37 @@ pub(crate) const MAX_INCREMENT: ParamDef = ParamDef {
     source: "choice (a curve point every 10 %)",
 };
 
+/// How the two-tool protocols establish contact before loading (`approach`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Approach {
+    /// Each tool moves in until its smallest gap to the body is 0, one after the other: both
+    /// touch, the cell is not deformed, and the reference state does not depend on how the
+    /// approach is stepped.
+    FirstContact,
+    /// Both tools move in together until the moving one feels `contact_force`.
+    ContactForce,
+}
+
+impl Approach {
+    /// The keyword of the scenario file.
+    pub fn from_word(word: &str) -> Self {
+        match word {
+            "contact-force" => Approach::ContactForce,
+            _ => Approach::FirstContact,
+        }
+    }
+}
+
+/// The declared `approach` of the compression protocol.
+pub(crate) const APPROACH: ParamDef = ParamDef {
+    key: "approach",
+    kind: ParamKind::Choice(&["first-contact", "contact-force"]),
+    default: ParamDefault::Word("first-contact"),
+    bounds: Bounds::ANY,
+    doc: "how the tools reach the cell: `first-contact` moves each tool until its smallest gap to the cell is 0 (both touch, nothing deformed; independent of the stepping); `contact-force` moves both until the moving one feels `contact_force`",
+    source: "spec (\"establish contact without deforming the cell\")",
+};
+
 /// Two bonded tools on the cell's poles along its test axis, after the common approach
 /// step: what the two-tool protocols (tension, compression) build their own steps on.
 pub(crate) struct PoleTest {
@@ -318,7 +349,13 @@ pub(crate) struct PoleTest {
     pub approach_step: usize,
     axis: usize,
     contact_force: f64,
+    /// The frictionless tools on the free filament nodes that follow the fixed and the
+    /// moving tool (`<tool>_filaments`), if any.
+    companions: [Option<String>; 2],
 }
+
+/// The node set of the filament nodes only the filaments hold (interior MT nodes).
+const FREE_FILAMENT_NODES: &str = "microtubule_interior";
 
 impl PoleTest {
     /// Places the tools (`shape(center, normal)` for each pole, the normal pointing into the
@@ -329,6 +366,8 @@ impl PoleTest {
         cell: &mut BuiltCell,
         names: [&str; 2],
         shape: impl Fn([f64; 3], [f64; 3]) -> ToolShape,
+        approach: Approach,
+        filament_contact: bool,
         contact_force: f64,
         max_increment: f64,
     ) -> Self {
@@ -370,6 +409,30 @@ impl PoleTest {
             });
             handle
         });
+        // Free filament nodes (the interior MT nodes, held only by their beams) meet the
+        // tools too: frictionless companions that move with each tool.
+        let free_nodes = cell
+            .model
+            .mesh
+            .node_sets
+            .get(FREE_FILAMENT_NODES)
+            .filter(|set| !set.is_empty())
+            .cloned();
+        let companions = std::array::from_fn(|k| {
+            let set = free_nodes.as_ref().filter(|_| filament_contact)?;
+            let tool = &cell.model.tools[[&fixed, &moving][k].index];
+            let companion = ToolSpec {
+                name: format!("{}_filaments", tool.name),
+                kind: ContactKind::Frictionless,
+                node_set: FREE_FILAMENT_NODES.into(),
+                faces: Vec::new(),
+                penalty: default_penalty(&cell.model.materials, &cell.model.mesh, set),
+                ..tool.clone()
+            };
+            let name = companion.name.clone();
+            cell.model.tools.push(companion);
+            Some(name)
+        });
         let test = PoleTest {
             fixed,
             moving,
@@ -383,18 +446,44 @@ impl PoleTest {
             approach_step: cell.model.steps.len(),
             axis,
             contact_force,
+            companions,
         };
         let travel = 0.25 * cell.description.cell_diameter;
-        let approach = test.step(
-            "approach",
-            true,
-            vec![
-                test.motion(&test.fixed, travel, None),
-                test.motion(&test.moving, -travel, Some(contact_force)),
-            ],
-        );
-        cell.model.steps.push(approach);
-        test
+        match approach {
+            Approach::ContactForce => {
+                let step = test.step(
+                    "approach",
+                    true,
+                    vec![
+                        test.motion(&test.fixed, travel, None),
+                        test.motion(&test.moving, -travel, Some(contact_force)),
+                    ],
+                );
+                cell.model.steps.push(step);
+                test
+            }
+            Approach::FirstContact => {
+                // Each tool alone, the cell held by its supports: the moving tool in until its
+                // smallest gap to the body is 0, then the fixed one. The gap is measured from
+                // the body's committed position, so it falls linearly with the travel and the
+                // stop is found in one or two increments; the body is not deformed.
+                let tolerance = default_tolerance(&cell.model.mesh);
+                let mut steps = Vec::new();
+                for (name, tool, distance) in [
+                    ("approach", &test.moving, -travel),
+                    ("seat", &test.fixed, travel),
+                ] {
+                    let mut motion = test.motion(tool, distance, None);
+                    motion.until_contact = Some(tolerance);
+                    steps.push(test.step(name, true, vec![motion]));
+                }
+                cell.model.steps.extend(steps);
+                PoleTest {
+                    approach_step: cell.model.steps.len() - 1,
+                    ..test
+                }
+            }
+        }
     }
 
     /// A tool's move along the test axis over a step, optionally until its force reaches
@@ -409,11 +498,28 @@ impl PoleTest {
                 value,
                 tolerance: 0.05 * self.contact_force,
             }),
+            until_contact: None,
         }
     }
 
     /// A loading step held by the minimal supports (`supported`) or only by the rotation hold.
-    pub fn step(&self, name: &str, supported: bool, tools: Vec<ToolMotion>) -> StepSpec {
+    /// The companions of the moved tools make the same moves.
+    pub fn step(&self, name: &str, supported: bool, mut tools: Vec<ToolMotion>) -> StepSpec {
+        let handles = [&self.fixed, &self.moving];
+        let follow: Vec<ToolMotion> = tools
+            .iter()
+            .filter_map(|m| {
+                let k = handles.iter().position(|h| h.name == m.tool)?;
+                let companion = self.companions[k].as_ref()?;
+                Some(ToolMotion {
+                    tool: companion.clone(),
+                    movement: m.movement,
+                    until_force: None,
+                    until_contact: None,
+                })
+            })
+            .collect();
+        tools.extend(follow);
         StepSpec {
             name: name.into(),
             control: self.loading,

@@ -334,6 +334,7 @@ pub(super) fn resolve_step_tools(
             tool: name.clone(),
             movement,
             until_force,
+            until_contact: None,
         });
     }
     Ok(out)
