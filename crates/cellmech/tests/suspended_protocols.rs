@@ -181,9 +181,9 @@ fn compression_test_stiffens_and_flattens_the_nucleus() {
     let mut touched = 0.0f64;
     for row in &rows {
         for plate in ["top_plate", "bottom_plate"] {
-            let pen = row[&format!("{plate}_filaments_max_penetration_um")];
+            let pen = row[&format!("{plate}_mt_nodes_max_penetration_um")];
             assert!(pen <= 2.0 * tolerance, "{plate}: MT node {pen} um inside");
-            touched = touched.max(row[&format!("{plate}_filaments_force_x_nN")].abs());
+            touched = touched.max(row[&format!("{plate}_mt_nodes_force_x_nN")].abs());
         }
     }
     assert!(touched > 0.0, "no MT node reached a plate");

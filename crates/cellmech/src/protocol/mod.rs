@@ -350,7 +350,7 @@ pub(crate) struct PoleTest {
     axis: usize,
     contact_force: f64,
     /// The frictionless tools on the free filament nodes that follow the fixed and the
-    /// moving tool (`<tool>_filaments`), if any.
+    /// moving tool (`<tool>_mt_nodes`), if any.
     companions: [Option<String>; 2],
 }
 
@@ -422,7 +422,7 @@ impl PoleTest {
             let set = free_nodes.as_ref().filter(|_| filament_contact)?;
             let tool = &cell.model.tools[[&fixed, &moving][k].index];
             let companion = ToolSpec {
-                name: format!("{}_filaments", tool.name),
+                name: format!("{}_mt_nodes", tool.name),
                 kind: ContactKind::Frictionless,
                 node_set: FREE_FILAMENT_NODES.into(),
                 faces: Vec::new(),
