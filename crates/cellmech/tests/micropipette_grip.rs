@@ -212,9 +212,12 @@ fn contact_grip_still_gives_the_force_it_gave_before() {
     assert_eq!(s.model.steps.len(), 5);
     let (summary, _) = run_case("coarse-contact", &s);
     let last = summary.protocol.unwrap().last.unwrap();
-    // tension.csv of commit 3a47610 (before the cap grip), same binary settings.
+    // tension.csv of commit 3a47610 (before the cap grip) was 41.75390033074585 nN; since
+    // 2026-12-02 the stop conditions halve a bracket the regula falsi creeps in and the
+    // prestress ramps in two increments, which moves the approach's stepping and with it
+    // the bonded patch: 41.753995153125224 nN (+2.3e-6).
     assert!(
-        (last.force_nn / 41.75390033074585 - 1.0).abs() < 1e-12,
+        (last.force_nn / 41.753995153125224 - 1.0).abs() < 1e-12,
         "{}",
         last.force_nn
     );
