@@ -223,6 +223,34 @@ fn compression_test_stiffens_and_flattens_the_nucleus() {
     );
 }
 
+#[test]
+fn plates_that_touch_a_cell_without_prestress_at_once_still_give_a_reference_state() {
+    // Without AFs the cell does not contract: the plates placed at +-D/2 already touch it,
+    // `approach` and `seat` end at their start without an increment, and the reference
+    // state is where the prestress ended.
+    let s = scenario(
+        "",
+        "kind = \"microplate-compression\"\ndeformations = [\"10%\"]",
+        "[families.actin]\nenabled = false\n",
+    )
+    .unwrap();
+    let (summary, r, _dir) = run_case("compression-no-actin", &s);
+    assert_eq!(summary.status, "completed");
+    let increments: Vec<usize> = summary.steps.iter().map(|st| st.increments).collect();
+    assert_eq!(&increments[1..3], &[0, 0], "{increments:?}");
+    assert!(r.reference_force_nn.unwrap().abs() < 1e-9);
+    let at = &r.at_deformations;
+    assert_eq!(at.len(), 1);
+    assert!(
+        (at[0].1.strain - 0.1).abs() < 1e-9 && at[0].1.force_nn > 0.0,
+        "{at:?}"
+    );
+    assert_eq!(
+        r.curve[0].nucleus_max_principal_log_strain_from_reference,
+        0.0
+    );
+}
+
 /// The rows of `curve.csv` by column name (blank cells: NaN).
 fn curve_rows(dir: &std::path::Path) -> Vec<std::collections::HashMap<String, f64>> {
     let text = std::fs::read_to_string(dir.join("curve.csv")).unwrap();

@@ -366,12 +366,13 @@ impl Observer for OutputWriter {
         self.record(result);
         let step_end = (report.step_time - 1.0).abs() < 1e-12;
         // The reference state is the last converged state of the reference step (which a
-        // stop condition may end before its step time 1): kept while the step runs, in use
-        // from its end (or, when it ends early, from the next step on).
+        // stop condition may end before its step time 1, or at its start without an
+        // increment: then the last state before it): kept while the steps up to it run, in
+        // use from its end (or, when it ends early, from the next step on).
         match self.reference_step {
-            Some(r) if r == report.step_index => {
+            Some(r) if report.step_index <= r => {
                 self.reference_candidate = Some(problem.u().to_vec());
-                if step_end {
+                if step_end && r == report.step_index {
                     self.u_reference = self.reference_candidate.take();
                 }
             }

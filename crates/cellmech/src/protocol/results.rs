@@ -160,9 +160,11 @@ pub fn write_protocol_results(
         apparent_modulus: None,
         files: Vec::new(),
     };
-    // The reference state is the end of its step: none when that step did not finish.
+    // The reference state is the end of its step: none when that step did not finish. A
+    // reference step that needed no increment (the plates of a cell that did not contract
+    // already touch it) ends where the step before it ended.
     let Some(reference) = (reference_step < completed_steps)
-        .then(|| last_row_of(reference_step))
+        .then(|| step.iter().rposition(|&k| k as usize <= reference_step))
         .flatten()
     else {
         return Ok(Some(results));
