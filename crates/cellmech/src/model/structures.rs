@@ -12,6 +12,7 @@
 
 use cellmech_fem::dof::DofMap;
 use cellmech_fem::element::beam::{BeamError, BeamSet};
+pub use cellmech_fem::element::membrane::MembraneLaw;
 use cellmech_fem::element::membrane::{MembraneError, MembraneSet};
 use cellmech_fem::element::truss::{TrussError, TrussSet};
 use cellmech_fem::mesh::{ElementKind, Mesh};
@@ -63,6 +64,8 @@ pub struct MembraneSpec {
     pub shear_modulus: f64,
     /// Reference thickness (µm).
     pub thickness: f64,
+    /// How the layer answers compression (carries it, or wrinkles: a tension field).
+    pub law: MembraneLaw,
     /// False when the family is switched off.
     pub enabled: bool,
 }
@@ -219,7 +222,8 @@ pub fn structure_terms(
             &mesh.nodes,
             m.shear_modulus,
             m.thickness,
-        )?;
+        )?
+        .with_law(m.law);
         terms.push(Box::new(set));
     }
     Ok(terms)

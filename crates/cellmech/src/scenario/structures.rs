@@ -79,6 +79,8 @@ pub struct MembraneSection {
     pub youngs_modulus: Option<Spanned<Pressure>>,
     /// Reference thickness of the layer.
     pub thickness: Option<Spanned<Length>>,
+    /// `elastic` (default: carries compression) or `tension-field` (wrinkles instead).
+    pub law: Option<Spanned<String>>,
 }
 
 /// `[families.<name>]`: study switches applied to every filament and membrane of a family.
@@ -639,12 +641,24 @@ fn resolve_membrane(
             format!("expected a thickness > 0; found {h} µm"),
         ));
     }
+    let law = match s.law.as_ref().map(|l| (l.get_ref().as_str(), l.span())) {
+        None | Some(("elastic", _)) => crate::model::structures::MembraneLaw::Elastic,
+        Some(("tension-field", _)) => crate::model::structures::MembraneLaw::TensionField,
+        Some((other, span)) => {
+            return Err(ctx.invalid(
+                Some(span),
+                &key("law"),
+                format!("expected \"elastic\" or \"tension-field\"; found \"{other}\""),
+            ))
+        }
+    };
     Ok(MembraneSpec {
         name,
         family,
         faces,
         shear_modulus: shear_modulus.0,
         thickness: h,
+        law,
         enabled: true,
     })
 }

@@ -146,8 +146,123 @@ fn det_c(v: &[f64; 3], qp: usize) -> Result<f64, KernelError> {
     }
 }
 
-fn membrane_evaluate<const N: usize, const Q: usize>(
+/// How a membrane answers in-plane compression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MembraneLaw {
+    /// The neo-Hookean sheet as it is: it carries compressive stresses (and, having no
+    /// bending stiffness, can only be kept from buckling by what it lies on).
+    #[default]
+    Elastic,
+    /// Tension field (wrinkling): the relaxed energy of the sheet, which carries no
+    /// compression. Where the smaller principal stress of the elastic law would be
+    /// compressive the sheet wrinkles across it and is in uniaxial tension along the larger
+    /// stretch, `W = μ/2 (λ₁² + 2/λ₁ − 3)` (the width contracts freely to `λ₂ = λ₁^(−1/2)`);
+    /// where `λ₁ ≤ 1` too it is slack (`W = 0`). Continuous with its first derivatives at
+    /// both boundaries.
+    TensionField,
+}
+
+/// The state of the sheet at one point under a law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SheetState {
+    Taut,
+    Wrinkled,
+    Slack,
+}
+
+/// Below this spread of the two eigenvalues of C (relative to their mean) the larger one's
+/// second derivatives are singular; the sheet is then taut or slack, never wrinkled
+/// (wrinkling needs `λ₂ < λ₁^(−1/2) < λ₁`, i.e. distinct eigenvalues away from `λ₁ = 1`).
+const EQUAL_EIGENVALUES: f64 = 1e-12;
+
+/// The state of the sheet at `v = (C₁₁, C₂₂, C₁₂)`, and the larger eigenvalue `a = λ₁²` of C
+/// with the root `s = √((C₁₁ − C₂₂)² + 4C₁₂²)` of the eigenvalue spread.
+fn sheet_state(law: MembraneLaw, v: &[f64; 3], d: f64) -> (SheetState, f64, f64) {
+    let s = ((v[0] - v[1]).powi(2) + 4.0 * v[2] * v[2]).sqrt();
+    let a = 0.5 * (v[0] + v[1] + s);
+    if law == MembraneLaw::Elastic {
+        return (SheetState::Taut, a, s);
+    }
+    // Smaller principal stress of the elastic law, S₂ ∝ 1 − 1/(λ₂² D), with λ₂² = D/a.
+    let b = d / a;
+    if b * d > 1.0 || s <= EQUAL_EIGENVALUES * (v[0] + v[1]) {
+        if a <= 1.0 && b * d <= 1.0 {
+            return (SheetState::Slack, a, s);
+        }
+        return (SheetState::Taut, a, s);
+    }
+    if a > 1.0 {
+        (SheetState::Wrinkled, a, s)
+    } else {
+        (SheetState::Slack, a, s)
+    }
+}
+
+/// Strain energy per unit reference volume `W` of the sheet under `law`, with its first and
+/// second derivatives with respect to `v = (C₁₁, C₂₂, C₁₂)` (the tangent's material part
+/// when `second` is asked).
+fn sheet_energy(
+    law: MembraneLaw,
+    mu: f64,
+    v: &[f64; 3],
+    qp: usize,
+    second: bool,
+) -> Result<(f64, [f64; 3], [[f64; 3]; 3]), KernelError> {
+    let d = det_c(v, qp)?;
+    let half_mu = 0.5 * mu;
+    let mut w_vv = [[0.0; 3]; 3];
+    match sheet_state(law, v, d) {
+        (SheetState::Taut, _, _) => {
+            let d2 = d * d;
+            let w_v = [
+                half_mu * (1.0 - v[1] / d2),
+                half_mu * (1.0 - v[0] / d2),
+                half_mu * 2.0 * v[2] / d2,
+            ];
+            if second {
+                let d_v = [v[1], v[0], -2.0 * v[2]];
+                let d_vv = [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -2.0]];
+                w_vv = std::array::from_fn(|m| {
+                    std::array::from_fn(|n| {
+                        half_mu * (2.0 * d_v[m] * d_v[n] / (d2 * d) - d_vv[m][n] / d2)
+                    })
+                });
+            }
+            Ok((half_mu * (v[0] + v[1] + 1.0 / d - 3.0), w_v, w_vv))
+        }
+        (SheetState::Wrinkled, a, s) => {
+            // W(a) = μ/2 (a + 2 a^(−1/2) − 3) with a the larger eigenvalue of C.
+            let dw = half_mu * (1.0 - a.powf(-1.5));
+            let diff = v[0] - v[1];
+            let a_v = [0.5 * (1.0 + diff / s), 0.5 * (1.0 - diff / s), 2.0 * v[2] / s];
+            let w_v = a_v.map(|x| dw * x);
+            if second {
+                let ddw = half_mu * 1.5 * a.powf(-2.5);
+                let s3 = s * s * s;
+                let (c, e) = (2.0 * v[2] * v[2] / s3, 2.0 * diff * v[2] / s3);
+                let a_vv = [
+                    [c, -c, -e],
+                    [-c, c, e],
+                    [-e, e, 2.0 * diff * diff / s3],
+                ];
+                w_vv = std::array::from_fn(|m| {
+                    std::array::from_fn(|n| ddw * a_v[m] * a_v[n] + dw * a_vv[m][n])
+                });
+            }
+            Ok((half_mu * (a + 2.0 / a.sqrt() - 3.0), w_v, w_vv))
+        }
+        (SheetState::Slack, _, _) => Ok((0.0, [0.0; 3], w_vv)),
+    }
+}
+
+/// Energy, residual (`3N`) and tangent (`3N × 3N`, row-major) of a membrane element with `N`
+/// nodes and `Q` quadrature points under `law`: `Π_e = Σ_q w_q H W(C_q)` with shear modulus
+/// `mu` (kPa), reference thickness `thickness` (µm) and nodal displacements `u` (µm,
+/// node-major).
+pub fn membrane_evaluate<const N: usize, const Q: usize>(
     reference: &MembraneReference<N, Q>,
+    law: MembraneLaw,
     mu: f64,
     thickness: f64,
     u: &[f64],
@@ -162,16 +277,9 @@ fn membrane_evaluate<const N: usize, const Q: usize>(
     let mut energy = 0.0;
     for (qp, point) in reference.points.iter().enumerate() {
         let (g, v) = tangents(&reference.x0, point, u);
-        let d = det_c(&v, qp)?;
         let scale = point.weight * thickness;
-        let half_mu = 0.5 * mu;
-        energy += scale * half_mu * (v[0] + v[1] + 1.0 / d - 3.0);
-        let d2 = d * d;
-        let w_v = [
-            half_mu * (1.0 - v[1] / d2),
-            half_mu * (1.0 - v[0] / d2),
-            half_mu * 2.0 * v[2] / d2,
-        ];
+        let (w, w_v, w_vv) = sheet_energy(law, mu, &v, qp, tangent.is_some())?;
+        energy += scale * w;
         // b[m][a] = ∂v_m/∂x_a
         let mut b = [[[0.0; 3]; N]; 3];
         for a in 0..N {
@@ -184,13 +292,6 @@ fn membrane_evaluate<const N: usize, const Q: usize>(
             }
         }
         if let Some(t) = tangent.as_deref_mut() {
-            let d_v = [v[1], v[0], -2.0 * v[2]];
-            let d_vv = [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -2.0]];
-            let w_vv: [[f64; 3]; 3] = std::array::from_fn(|m| {
-                std::array::from_fn(|n| {
-                    half_mu * (2.0 * d_v[m] * d_v[n] / (d2 * d) - d_vv[m][n] / d2)
-                })
-            });
             for a in 0..N {
                 let [a1, a2] = point.grad[a];
                 // B_m(a) contracted with W_vv once, reused for every b.
@@ -229,7 +330,15 @@ pub fn membrane_quad4_evaluate(
     residual: &mut [f64],
     tangent: Option<&mut [f64]>,
 ) -> Result<f64, KernelError> {
-    membrane_evaluate(reference, mu, thickness, u, residual, tangent)
+    membrane_evaluate(
+        reference,
+        MembraneLaw::Elastic,
+        mu,
+        thickness,
+        u,
+        residual,
+        tangent,
+    )
 }
 
 /// Energy, residual (9) and tangent (9×9, row-major) of a constant-strain membrane triangle;
@@ -242,7 +351,15 @@ pub fn membrane_tri3_evaluate(
     residual: &mut [f64],
     tangent: Option<&mut [f64]>,
 ) -> Result<f64, KernelError> {
-    membrane_evaluate(reference, mu, thickness, u, residual, tangent)
+    membrane_evaluate(
+        reference,
+        MembraneLaw::Elastic,
+        mu,
+        thickness,
+        u,
+        residual,
+        tangent,
+    )
 }
 
 /// Area-weighted element averages of the membrane state.
@@ -256,9 +373,13 @@ pub struct MembraneState {
     pub area_stretch: f64,
 }
 
-/// Averages the state of an element over its quadrature points (weights `w_q dA₀`).
+/// Averages the state of an element under `law` over its quadrature points (weights
+/// `w_q dA₀`). A wrinkled point has the tension of the uniaxial sheet, `t₁ = h μ (λ₁² − 1/λ₁)`
+/// with `h = H λ₁^(−1/2)`, and `t₂ = 0`; a slack one none; the thickness is that of the sheet
+/// between the wrinkles, the area stretch the surface's.
 pub fn membrane_state<const N: usize, const Q: usize>(
     reference: &MembraneReference<N, Q>,
+    law: MembraneLaw,
     mu: f64,
     thickness: f64,
     u: &[f64],
@@ -268,15 +389,24 @@ pub fn membrane_state<const N: usize, const Q: usize>(
     for (qp, point) in reference.points.iter().enumerate() {
         let (_, v) = tangents(&reference.x0, point, u);
         let d = det_c(&v, qp)?;
-        let mean = 0.5 * (v[0] + v[1]);
-        let radius = (0.25 * (v[0] - v[1]).powi(2) + v[2] * v[2]).sqrt();
-        let h = thickness / d.sqrt();
-        let values = [
-            h * mu * (mean + radius - 1.0 / d),
-            h * mu * (mean - radius - 1.0 / d),
-            h,
-            d.sqrt(),
-        ];
+        let values = match sheet_state(law, &v, d) {
+            (SheetState::Taut, _, _) => {
+                let mean = 0.5 * (v[0] + v[1]);
+                let radius = (0.25 * (v[0] - v[1]).powi(2) + v[2] * v[2]).sqrt();
+                let h = thickness / d.sqrt();
+                [
+                    h * mu * (mean + radius - 1.0 / d),
+                    h * mu * (mean - radius - 1.0 / d),
+                    h,
+                    d.sqrt(),
+                ]
+            }
+            (SheetState::Wrinkled, a, _) => {
+                let h = thickness * a.powf(-0.25);
+                [h * mu * (a - 1.0 / a.sqrt()), 0.0, h, d.sqrt()]
+            }
+            (SheetState::Slack, _, _) => [0.0, 0.0, thickness, d.sqrt()],
+        };
         for (s, x) in acc.iter_mut().zip(values) {
             *s += point.weight * x;
         }

@@ -28,6 +28,15 @@
 //!
 //! Principal Cauchy stresses of the incompressible sheet are `σ_i = μ(λ_i² − 1/(λ₁λ₂)²)` and
 //! the true tensions (force per current length) `t_i = h σ_i`.
+//!
+//! With [`MembraneLaw::TensionField`] the sheet carries no compression (a wrinkling
+//! membrane): its relaxed energy is the elastic one where both principal stresses are
+//! tensile, `μ/2 (λ₁² + 2/λ₁ − 3)` (uniaxial tension along the larger stretch, the width
+//! contracting freely to `λ₂ = λ₁^(−1/2)`) where the smaller would be compressive, and 0
+//! where `λ₁ ≤ 1`. With `a = λ₁²` the larger eigenvalue of C and
+//! `s = √((C₁₁ − C₂₂)² + 4C₁₂²)`: `∂a/∂v = (½(1 + (C₁₁−C₂₂)/s), ½(1 − (C₁₁−C₂₂)/s), 2C₁₂/s)`
+//! and `∂²a/∂v²` = (2/s³) [[C₁₂², −C₁₂², −(C₁₁−C₂₂)C₁₂], [·, C₁₂², (C₁₁−C₂₂)C₁₂],
+//! [·, ·, (C₁₁−C₂₂)²]], so `W_v = W'(a) a_v`, `W_vv = W''(a) a_v a_vᵀ + W'(a) a_vv`.
 
 mod kernel;
 mod set;
@@ -35,7 +44,7 @@ mod set;
 mod tests;
 
 pub use kernel::{
-    membrane_quad4_evaluate, membrane_state, membrane_tri3_evaluate, MembranePoint,
-    MembraneReference, MembraneState, Quad4Reference, Tri3Reference,
+    membrane_evaluate, membrane_quad4_evaluate, membrane_state, membrane_tri3_evaluate,
+    MembraneLaw, MembranePoint, MembraneReference, MembraneState, Quad4Reference, Tri3Reference,
 };
 pub use set::{MembraneError, MembraneSet};

@@ -2,7 +2,7 @@
 //! per-element outputs.
 
 use super::kernel::{
-    membrane_quad4_evaluate, membrane_state, membrane_tri3_evaluate, MembraneState, Quad4Reference,
+    membrane_evaluate, membrane_state, MembraneLaw, MembraneState, Quad4Reference,
     Tri3Reference,
 };
 use crate::dof::DofMap;
@@ -61,6 +61,7 @@ pub struct MembraneSet {
     connectivity: Vec<usize>,
     shear_modulus: f64,
     thickness: f64,
+    law: MembraneLaw,
     enabled: bool,
     references: References,
 }
@@ -139,6 +140,7 @@ impl MembraneSet {
             connectivity,
             shear_modulus,
             thickness,
+            law: MembraneLaw::Elastic,
             enabled: true,
             references,
         })
@@ -160,6 +162,17 @@ impl MembraneSet {
             shear_modulus,
             thickness,
         )
+    }
+
+    /// The same set under `law` (default [`MembraneLaw::Elastic`]).
+    pub fn with_law(mut self, law: MembraneLaw) -> Self {
+        self.law = law;
+        self
+    }
+
+    /// How the sheet answers compression.
+    pub fn law(&self) -> MembraneLaw {
+        self.law
     }
 
     /// Switches the whole set on or off.
@@ -200,8 +213,8 @@ impl MembraneSet {
     pub fn element_state(&self, e: usize, u_e: &[f64]) -> Result<MembraneState, KernelError> {
         let (mu, h) = (self.shear_modulus, self.thickness);
         match &self.references {
-            References::Quad4(r) => membrane_state(&r[e], mu, h, u_e),
-            References::Tri3(r) => membrane_state(&r[e], mu, h, u_e),
+            References::Quad4(r) => membrane_state(&r[e], self.law, mu, h, u_e),
+            References::Tri3(r) => membrane_state(&r[e], self.law, mu, h, u_e),
         }
     }
 }
@@ -235,8 +248,10 @@ impl ElementSet for MembraneSet {
     ) -> Result<f64, KernelError> {
         let (mu, h) = (self.shear_modulus, self.thickness);
         match &self.references {
-            References::Quad4(r) => membrane_quad4_evaluate(&r[e], mu, h, u_e, residual, tangent),
-            References::Tri3(r) => membrane_tri3_evaluate(&r[e], mu, h, u_e, residual, tangent),
+            References::Quad4(r) => {
+                membrane_evaluate(&r[e], self.law, mu, h, u_e, residual, tangent)
+            }
+            References::Tri3(r) => membrane_evaluate(&r[e], self.law, mu, h, u_e, residual, tangent),
         }
     }
 

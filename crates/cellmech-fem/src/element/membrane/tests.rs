@@ -94,7 +94,7 @@ fn membrane_homogeneous_biaxial_state_matches_closed_form() {
         "energy {e} vs {}",
         4.0 * h * w
     );
-    let s = membrane_state(&r, mu, h, &u).unwrap();
+    let s = membrane_state(&r, MembraneLaw::Elastic, mu, h, &u).unwrap();
     let j = l1 * l2;
     let t1 = h / j * mu * (l1 * l1 - 1.0 / (j * j));
     let t2 = h / j * mu * (l2 * l2 - 1.0 / (j * j));
@@ -190,4 +190,130 @@ fn membrane_set_outputs_report_uniaxial_thinning() {
         .outputs(&u, &DofMap::translational(4))
         .unwrap()
         .is_none());
+}
+
+/// Displacements of a flat unit square (z = 0) stretched by `l1` along x and `l2` along y.
+fn stretched_square(l1: f64, l2: f64) -> (Quad4Reference, Vec<f64>) {
+    let x0 = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let u = x0
+        .iter()
+        .flat_map(|x| [(l1 - 1.0) * x[0], (l2 - 1.0) * x[1], 0.0])
+        .collect();
+    (Quad4Reference::new(x0).unwrap(), u)
+}
+
+#[test]
+fn tension_field_membrane_is_taut_wrinkled_or_slack_with_the_closed_form_energies() {
+    let (mu, h) = (2.0, 0.1);
+    let law = MembraneLaw::TensionField;
+    let energy = |l1: f64, l2: f64, law| {
+        let (r, u) = stretched_square(l1, l2);
+        let mut res = [0.0; 12];
+        membrane_evaluate(&r, law, mu, h, &u, &mut res, None).unwrap()
+    };
+    // Taut (λ₂ = 0.9 above the natural width 1.5^(−1/2) = 0.816): the elastic energy.
+    let elastic = |l1: f64, l2: f64| h * mu / 2.0 * (l1 * l1 + l2 * l2 + 1.0 / (l1 * l2).powi(2) - 3.0);
+    assert!((energy(1.5, 0.9, law) - elastic(1.5, 0.9)).abs() < 1e-14);
+    // Wrinkled (λ₂ = 0.7, 0.5): the uniaxial energy, whatever the width; the elastic sheet
+    // would store more (it is compressed across).
+    let uniaxial = h * mu / 2.0 * (1.5f64.powi(2) + 2.0 / 1.5 - 3.0);
+    for l2 in [0.7, 0.5] {
+        let w = energy(1.5, l2, law);
+        assert!((w - uniaxial).abs() < 1e-14, "{l2}: {w} vs {uniaxial}");
+        assert!(energy(1.5, l2, MembraneLaw::Elastic) > w + 1e-3);
+    }
+    // At the natural width both branches give the same energy and force.
+    let natural = 1.5f64.powf(-0.5);
+    assert!((elastic(1.5, natural) - uniaxial).abs() < 1e-14);
+    let force = |l2: f64| {
+        let (r, u) = stretched_square(1.5, l2);
+        let mut res = [0.0; 12];
+        membrane_evaluate(&r, law, mu, h, &u, &mut res, None).unwrap();
+        res
+    };
+    let (below, above) = (force(natural - 1e-9), force(natural + 1e-9));
+    for (a, b) in below.iter().zip(&above) {
+        assert!((a - b).abs() < 1e-7, "{below:?} vs {above:?}");
+    }
+    // The uniaxial force along x: t₁ × current width with t₁ = h₁ μ (λ² − 1/λ) and the
+    // sheet's own width λ^(−1/2): H μ (λ − λ⁻²) per unit reference width, on each end.
+    let wrinkled = force(0.6);
+    let pull: f64 = [1, 2].iter().map(|&a| wrinkled[3 * a]).sum();
+    assert!((pull - h * mu * (1.5 - 1.0 / 2.25)).abs() < 1e-12, "{pull}");
+    // Slack: compressed both ways, or stretched less than 1 along its larger stretch.
+    for (l1, l2) in [(0.9, 0.8), (1.0, 0.5), (0.95, 0.95)] {
+        let (r, u) = stretched_square(l1, l2);
+        let mut res = [0.0; 12];
+        let mut k = [0.0; 144];
+        let w = membrane_evaluate(&r, law, mu, h, &u, &mut res, Some(&mut k)).unwrap();
+        assert!(w == 0.0 && res.iter().chain(&k).all(|&x| x == 0.0));
+    }
+}
+
+#[test]
+fn tension_field_membrane_tangent_and_residual_match_finite_differences() {
+    // A warped quad deformed into each state; central differences of the energy (residual)
+    // and of the residual (tangent).
+    let x0 = [
+        [0.0, 0.0, 0.0],
+        [1.1, 0.1, 0.05],
+        [1.0, 0.9, -0.1],
+        [-0.1, 1.0, 0.08],
+    ];
+    let r = Quad4Reference::new(x0).unwrap();
+    let (mu, h) = (1.3, 0.2);
+    let law = MembraneLaw::TensionField;
+    let cases: [(&str, [f64; 2]); 3] = [("taut", [1.4, 1.2]), ("wrinkled", [1.5, 0.55]), ("slack", [0.8, 0.7])];
+    for (name, [l1, l2]) in cases {
+        // Stretch along a rotated in-plane direction, plus a small smooth perturbation.
+        let (c, s) = (0.6f64.cos(), 0.6f64.sin());
+        let u: Vec<f64> = x0
+            .iter()
+            .enumerate()
+            .flat_map(|(a, x)| {
+                let p = c * x[0] + s * x[1];
+                let q = -s * x[0] + c * x[1];
+                let (p2, q2) = (l1 * p, l2 * q);
+                let y = [c * p2 - s * q2, s * p2 + c * q2];
+                let wobble = 0.01 * (a as f64 + 1.0);
+                [y[0] - x[0] + wobble, y[1] - x[1] - 0.5 * wobble, 0.3 * wobble]
+            })
+            .collect();
+        let mut res = [0.0; 12];
+        let mut k = [0.0; 144];
+        membrane_evaluate(&r, law, mu, h, &u, &mut res, Some(&mut k)).unwrap();
+        let eps = 1e-6;
+        let scale = res.iter().map(|x| x.abs()).fold(1e-12, f64::max);
+        let kscale = k.iter().map(|x| x.abs()).fold(1e-12, f64::max);
+        for j in 0..12 {
+            let mut up = u.clone();
+            let mut um = u.clone();
+            up[j] += eps;
+            um[j] -= eps;
+            let (mut rp, mut rm) = ([0.0; 12], [0.0; 12]);
+            let ep = membrane_evaluate(&r, law, mu, h, &up, &mut rp, None).unwrap();
+            let em = membrane_evaluate(&r, law, mu, h, &um, &mut rm, None).unwrap();
+            let fd = (ep - em) / (2.0 * eps);
+            assert!((fd - res[j]).abs() < 1e-6 * scale, "{name}: residual {j}: {fd} vs {}", res[j]);
+            for i in 0..12 {
+                let fd = (rp[i] - rm[i]) / (2.0 * eps);
+                assert!(
+                    (fd - k[i * 12 + j]).abs() < 1e-5 * kscale,
+                    "{name}: K[{i}][{j}] {} vs {fd}",
+                    k[i * 12 + j]
+                );
+            }
+        }
+        let state = membrane_state(&r, law, mu, h, &u).unwrap();
+        match name {
+            "taut" => assert!(state.principal_tensions[1] > 0.0),
+            "wrinkled" => assert!(state.principal_tensions[0] > 0.0 && state.principal_tensions[1] == 0.0),
+            _ => assert_eq!(state.principal_tensions, [0.0, 0.0]),
+        }
+    }
 }

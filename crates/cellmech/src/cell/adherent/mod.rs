@@ -56,6 +56,8 @@ pub struct AdherentCellMaterials {
     pub cortex_shear_modulus: f64,
     /// Actin-cortex thickness (µm).
     pub cortex_thickness: f64,
+    /// Whether the cortex carries compression or wrinkles.
+    pub cortex_law: crate::model::structures::MembraneLaw,
     /// Actin bundles.
     pub bundle: ActinMaterial,
     /// Microtubules.
@@ -177,6 +179,7 @@ impl AdherentCell {
             faces: dome_faces.clone(),
             shear_modulus: m.cortex_shear_modulus,
             thickness: m.cortex_thickness,
+            law: m.cortex_law,
             enabled: on.cortex,
         });
         let b = m.bundle;

@@ -44,6 +44,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         shared::NUCLEUS_POISSON_RATIO,
         p("cortex.youngs_modulus", K::Quantity(Pressure), D::Number(2.0), POS, "actin cortex (AC) Young's modulus (incompressible membrane, G = E/3)", "spec (AC)"),
         p("cortex.thickness", K::Quantity(Length), D::Number(0.2), POS, "actin cortex thickness (membrane on the free surface, no bending)", SPEC),
+        p("cortex.law", K::Choice(&["elastic", "tension-field"]), D::Word("elastic"), crate::param::Bounds::ANY, "how the cortex answers in-plane compression: `elastic` carries it; `tension-field` wrinkles instead (no compressive stress)", "choice ([membranes](membrane.md#tension-field))"),
         p("bundles.count", K::Count, D::Count(8), Bounds::new(1.0, true, 64.0, true), "actin bundles (ABs), each between two FAs, along the long axis", "choice (spec: \"roughly uniformly\")"),
         p("bundles.height", K::Quantity(Length), D::Number(4.0), POS, "height of the ABs and their FAs above the substrate", "choice ([adherent cell](adherent-cell.md#cytoskeleton))"),
         p("bundles.spread", K::Quantity(Dimensionless), D::Number(0.8), Bounds::new(0.0, false, 1.0, false), "fraction of the dome's half width at that height the ABs span", CHOICE),
@@ -128,6 +129,7 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
         nucleus_poisson_ratio: v.number("nucleus.poisson_ratio"),
         cortex_shear_modulus: v.number("cortex.youngs_modulus") / 3.0,
         cortex_thickness: v.number("cortex.thickness"),
+        cortex_law: crate::cell::suspended::params::membrane_law(v.word("cortex.law")),
         bundle: ActinMaterial {
             youngs_modulus: v.number("bundles.youngs_modulus"),
             diameter: v.number("bundles.diameter"),

@@ -51,6 +51,8 @@ pub struct SuspendedCellMaterials {
     pub membrane_shear_modulus: f64,
     /// Cell-membrane thickness (µm).
     pub membrane_thickness: f64,
+    /// Whether the cell membrane carries compression or wrinkles.
+    pub membrane_law: crate::model::structures::MembraneLaw,
     /// Actin filaments.
     pub actin: ActinMaterial,
     /// Microtubules.

@@ -267,6 +267,7 @@ pub fn suspended_cell_parts(
         faces,
         shear_modulus: positive("membrane", "shear modulus", m.membrane_shear_modulus)?,
         thickness: positive("membrane", "thickness", m.membrane_thickness)?,
+        law: m.membrane_law,
         enabled: components.membrane,
     });
     let a = m.actin;

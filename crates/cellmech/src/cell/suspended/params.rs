@@ -339,6 +339,14 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             SPEC,
         ),
         p(
+            "membrane.law",
+            K::Choice(&["elastic", "tension-field"]),
+            D::Word("elastic"),
+            Bounds::ANY,
+            "how the membrane answers in-plane compression: `elastic` carries it (a sheet without bending stiffness, held only by the cytoplasm under it); `tension-field` wrinkles instead (the relaxed energy: no compressive stress)",
+            "choice ([membranes](membrane.md#tension-field))",
+        ),
+        p(
             "actin.youngs_modulus",
             K::Quantity(Pressure),
             D::Number(2.6e6),
@@ -473,6 +481,7 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         nucleus_poisson_ratio: v.number("nucleus.poisson_ratio"),
         membrane_shear_modulus: v.number("membrane.youngs_modulus") / 3.0,
         membrane_thickness: v.number("membrane.thickness"),
+        membrane_law: membrane_law(v.word("membrane.law")),
         actin: ActinMaterial {
             youngs_modulus: v.number("actin.youngs_modulus"),
             diameter: v.number("actin.diameter"),
@@ -566,5 +575,13 @@ impl Default for SuspendedCellMaterials {
     /// The defaults declared in [`SUSPENDED_CELL`].
     fn default() -> Self {
         defaults().1
+    }
+}
+
+/// The membrane law of a `law` choice (`"elastic"` or `"tension-field"`).
+pub(crate) fn membrane_law(word: &str) -> crate::model::structures::MembraneLaw {
+    match word {
+        "tension-field" => crate::model::structures::MembraneLaw::TensionField,
+        _ => crate::model::structures::MembraneLaw::Elastic,
     }
 }
