@@ -235,17 +235,17 @@ fn sheet_energy(
             // W(a) = μ/2 (a + 2 a^(−1/2) − 3) with a the larger eigenvalue of C.
             let dw = half_mu * (1.0 - a.powf(-1.5));
             let diff = v[0] - v[1];
-            let a_v = [0.5 * (1.0 + diff / s), 0.5 * (1.0 - diff / s), 2.0 * v[2] / s];
+            let a_v = [
+                0.5 * (1.0 + diff / s),
+                0.5 * (1.0 - diff / s),
+                2.0 * v[2] / s,
+            ];
             let w_v = a_v.map(|x| dw * x);
             if second {
                 let ddw = half_mu * 1.5 * a.powf(-2.5);
                 let s3 = s * s * s;
                 let (c, e) = (2.0 * v[2] * v[2] / s3, 2.0 * diff * v[2] / s3);
-                let a_vv = [
-                    [c, -c, -e],
-                    [-c, c, e],
-                    [-e, e, 2.0 * diff * diff / s3],
-                ];
+                let a_vv = [[c, -c, -e], [-c, c, e], [-e, e, 2.0 * diff * diff / s3]];
                 w_vv = std::array::from_fn(|m| {
                     std::array::from_fn(|n| ddw * a_v[m] * a_v[n] + dw * a_vv[m][n])
                 });

@@ -2,8 +2,7 @@
 //! per-element outputs.
 
 use super::kernel::{
-    membrane_evaluate, membrane_state, MembraneLaw, MembraneState, Quad4Reference,
-    Tri3Reference,
+    membrane_evaluate, membrane_state, MembraneLaw, MembraneState, Quad4Reference, Tri3Reference,
 };
 use crate::dof::DofMap;
 use crate::element::{ElementSet, KernelError};
@@ -251,7 +250,9 @@ impl ElementSet for MembraneSet {
             References::Quad4(r) => {
                 membrane_evaluate(&r[e], self.law, mu, h, u_e, residual, tangent)
             }
-            References::Tri3(r) => membrane_evaluate(&r[e], self.law, mu, h, u_e, residual, tangent),
+            References::Tri3(r) => {
+                membrane_evaluate(&r[e], self.law, mu, h, u_e, residual, tangent)
+            }
         }
     }
 

@@ -217,7 +217,8 @@ fn tension_field_membrane_is_taut_wrinkled_or_slack_with_the_closed_form_energie
         membrane_evaluate(&r, law, mu, h, &u, &mut res, None).unwrap()
     };
     // Taut (λ₂ = 0.9 above the natural width 1.5^(−1/2) = 0.816): the elastic energy.
-    let elastic = |l1: f64, l2: f64| h * mu / 2.0 * (l1 * l1 + l2 * l2 + 1.0 / (l1 * l2).powi(2) - 3.0);
+    let elastic =
+        |l1: f64, l2: f64| h * mu / 2.0 * (l1 * l1 + l2 * l2 + 1.0 / (l1 * l2).powi(2) - 3.0);
     assert!((energy(1.5, 0.9, law) - elastic(1.5, 0.9)).abs() < 1e-14);
     // Wrinkled (λ₂ = 0.7, 0.5): the uniaxial energy, whatever the width; the elastic sheet
     // would store more (it is compressed across).
@@ -268,7 +269,11 @@ fn tension_field_membrane_tangent_and_residual_match_finite_differences() {
     let r = Quad4Reference::new(x0).unwrap();
     let (mu, h) = (1.3, 0.2);
     let law = MembraneLaw::TensionField;
-    let cases: [(&str, [f64; 2]); 3] = [("taut", [1.4, 1.2]), ("wrinkled", [1.5, 0.55]), ("slack", [0.8, 0.7])];
+    let cases: [(&str, [f64; 2]); 3] = [
+        ("taut", [1.4, 1.2]),
+        ("wrinkled", [1.5, 0.55]),
+        ("slack", [0.8, 0.7]),
+    ];
     for (name, [l1, l2]) in cases {
         // Stretch along a rotated in-plane direction, plus a small smooth perturbation.
         let (c, s) = (0.6f64.cos(), 0.6f64.sin());
@@ -281,7 +286,11 @@ fn tension_field_membrane_tangent_and_residual_match_finite_differences() {
                 let (p2, q2) = (l1 * p, l2 * q);
                 let y = [c * p2 - s * q2, s * p2 + c * q2];
                 let wobble = 0.01 * (a as f64 + 1.0);
-                [y[0] - x[0] + wobble, y[1] - x[1] - 0.5 * wobble, 0.3 * wobble]
+                [
+                    y[0] - x[0] + wobble,
+                    y[1] - x[1] - 0.5 * wobble,
+                    0.3 * wobble,
+                ]
             })
             .collect();
         let mut res = [0.0; 12];
@@ -299,7 +308,11 @@ fn tension_field_membrane_tangent_and_residual_match_finite_differences() {
             let ep = membrane_evaluate(&r, law, mu, h, &up, &mut rp, None).unwrap();
             let em = membrane_evaluate(&r, law, mu, h, &um, &mut rm, None).unwrap();
             let fd = (ep - em) / (2.0 * eps);
-            assert!((fd - res[j]).abs() < 1e-6 * scale, "{name}: residual {j}: {fd} vs {}", res[j]);
+            assert!(
+                (fd - res[j]).abs() < 1e-6 * scale,
+                "{name}: residual {j}: {fd} vs {}",
+                res[j]
+            );
             for i in 0..12 {
                 let fd = (rp[i] - rm[i]) / (2.0 * eps);
                 assert!(
@@ -312,7 +325,9 @@ fn tension_field_membrane_tangent_and_residual_match_finite_differences() {
         let state = membrane_state(&r, law, mu, h, &u).unwrap();
         match name {
             "taut" => assert!(state.principal_tensions[1] > 0.0),
-            "wrinkled" => assert!(state.principal_tensions[0] > 0.0 && state.principal_tensions[1] == 0.0),
+            "wrinkled" => {
+                assert!(state.principal_tensions[0] > 0.0 && state.principal_tensions[1] == 0.0)
+            }
             _ => assert_eq!(state.principal_tensions, [0.0, 0.0]),
         }
     }
