@@ -13,6 +13,7 @@ pub mod lm;
 pub mod report;
 pub mod runs;
 pub mod spec;
+pub mod synthetic;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -199,14 +200,23 @@ pub fn run_fit(
     cellmech_io::write_atomic(&out.join("fit.toml"), spec.text.as_bytes())
         .map_err(|e| FitError::Output(e.to_string()))?;
     let params = &spec.parameters;
+    let x0: Vec<f64> = params.iter().map(|p| p.to_variable(p.start)).collect();
+    // The start maps back to the start exactly (ln then exp may not), so the start run's
+    // document says what the fit file says.
     let values_of = |x: &[f64]| -> Vec<f64> {
         params
             .iter()
             .zip(x)
-            .map(|(p, v)| p.to_value(*v).clamp(p.lower, p.upper))
+            .zip(&x0)
+            .map(|((p, v), v0)| {
+                if v == v0 {
+                    p.start
+                } else {
+                    p.to_value(*v).clamp(p.lower, p.upper)
+                }
+            })
             .collect()
     };
-    let x0: Vec<f64> = params.iter().map(|p| p.to_variable(p.start)).collect();
     let lower: Vec<f64> = params.iter().map(|p| p.to_variable(p.lower)).collect();
     let upper: Vec<f64> = params.iter().map(|p| p.to_variable(p.upper)).collect();
     // Log variables: an absolute step of fd_step is a relative change of the value.
@@ -231,6 +241,7 @@ pub fn run_fit(
     )?;
     // The curves at the fitted and start values (both cached: no FE run).
     let best = values_of(&result.x);
+    cache.silent = true;
     let fitted_run = cache.evaluate(&best)?;
     let start_run = cache.evaluate(&values_of(&x0))?;
     let log = std::mem::take(&mut cache.log);

@@ -49,6 +49,9 @@ pub struct RunCache<'a> {
     pub log: Vec<RunEvent>,
     /// FE runs solved in this invocation.
     pub solved: usize,
+    /// When set, evaluations are neither logged nor reported (re-reading cached runs for
+    /// the report).
+    pub silent: bool,
 }
 
 /// The residuals of a run, or why it cannot be used; and its simulated curve.
@@ -76,6 +79,7 @@ impl<'a> RunCache<'a> {
             on_run,
             log: Vec::new(),
             solved: 0,
+            silent: false,
         }
     }
 
@@ -134,8 +138,10 @@ impl<'a> RunCache<'a> {
                 start.elapsed().as_secs_f64()
             },
         };
-        (self.on_run)(&event);
-        self.log.push(event);
+        if !self.silent {
+            (self.on_run)(&event);
+            self.log.push(event);
+        }
         Ok(Evaluated {
             residuals,
             curve,

@@ -243,6 +243,17 @@ fn quantity(v: &Value, dim: Option<Dimension>) -> Result<(f64, Dimension), Strin
 
 /// Parses fit text (`origin` names it in messages; `dir` anchors relative paths).
 pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<FitSpec, FitError> {
+    parse_with(text, origin, dir, true)
+}
+
+/// [`parse`]; with `need_data = false` a missing measured file is an empty curve (to make
+/// a synthetic one with [`super::synthetic`]).
+pub fn parse_with(
+    text: &str,
+    origin: &str,
+    dir: &Path,
+    need_data: bool,
+) -> Result<FitSpec, FitError> {
     let invalid = |message: String| FitError::Invalid {
         path: origin.into(),
         message,
@@ -290,8 +301,19 @@ pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<FitSpec, FitError> 
         .clone()
         .unwrap_or_else(|| [x_column.to_string(), "force_nN".to_string()]);
     let data_path = dir.join(&file.data);
-    let data = read_measured(&data_path, file.columns.as_ref())
-        .map_err(|e| invalid(format!("`data`: {e}")))?;
+    let data = if need_data || data_path.exists() {
+        read_measured(&data_path, file.columns.as_ref())
+            .map_err(|e| invalid(format!("`data`: {e}")))?
+    } else {
+        Curve {
+            x: Vec::new(),
+            y: Vec::new(),
+            x_name: simulated[0].clone(),
+            y_name: simulated[1].clone(),
+            x_dim: super::curve::column_dimension(&simulated[0]),
+            y_dim: super::curve::column_dimension(&simulated[1]),
+        }
+    };
     for (k, (name, dim)) in [(&simulated[0], data.x_dim), (&simulated[1], data.y_dim)]
         .into_iter()
         .enumerate()
@@ -433,7 +455,7 @@ pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<FitSpec, FitError> 
         case.name = format!("parameters at {name}");
         crate::study::run::check_cases(&spec.experiment, &[case])?;
     }
-    if let Some([a, b]) = spec.range {
+    if let (true, Some([a, b])) = (need_data, spec.range) {
         if spec.fitted_points().len() < spec.parameters.len() + 1 {
             return Err(invalid(format!(
                 "`range`: expected more measured points in [{a}, {b}] than parameters ({}); found {}",
