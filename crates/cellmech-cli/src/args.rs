@@ -105,17 +105,28 @@ pub enum Command {
     ///
     /// Example (examples/fit-tension.toml):
     ///   base = "suspended-tension"
-    ///   data = "fit-tension-curve.csv"        # displacement [um],force [nN]
+    ///   data = "fit-tension-curve.csv"        # header: elongation [um],force [nN]
+    ///   range = ["0 um", "10 um"]
     ///   [set]
-    ///   "cell.core_divisions" = 4
+    ///   "cell.core_divisions" = 4             # (and shell/outer layers: the coarse cell)
+    ///   "protocol.elongation" = "10 um"
     ///   [[parameter]]
     ///   key = "cell.cytoplasm.shear_modulus"
-    ///   start = "0.25 kPa"
-    ///   lower = "0.01 kPa"
-    ///   upper = "10 kPa"
+    ///   start = "0.24 kPa"
+    ///   lower = "0.02 kPa"
+    ///   upper = "2 kPa"
+    ///   [[parameter]]
+    ///   key = "cell.membrane.youngs_modulus"
+    ///   start = "650 kPa"
+    ///   lower = "50 kPa"
+    ///   upper = "20000 kPa"
     ///
-    ///   cellmech fit examples/fit-tension.toml --out out/fit
+    ///   cellmech fit examples/fit-tension.toml --out out/fit        # ~18 runs, 1-2 min
+    ///   cellmech fit examples/fit-tension.toml --out out/fit        # again: all cached
+    ///   cellmech fit examples/fit-tension.toml --dry-run            # check only
     ///   cellmech fit examples/fit-tension.toml --out out/fit --json --quiet
+    ///   cellmech fit examples/fit-tension.toml --synthetic my.csv --at "0.17 kPa" \
+    ///       --at "1000 kPa" --noise "0.3 nN" --seed 14             # a test curve
     #[command(verbatim_doc_comment)]
     Fit(FitArgs),
 }
@@ -130,6 +141,10 @@ pub struct FitArgs {
     /// Solver threads per FE run (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Check the fit file, its data and every parameter key (at the start and both
+    /// bounds) and print what would be fitted, without running anything.
+    #[arg(long)]
+    pub dry_run: bool,
     /// Instead of fitting, write a synthetic curve to FILE: the experiment run at --at
     /// values, interpolated at --points evenly spaced points over `range` (or the whole
     /// curve), plus Gaussian noise (--noise, --seed). The fit's `data` need not exist.

@@ -17,6 +17,33 @@ pub fn fit(args: &FitArgs) -> anyhow::Result<ExitCode> {
     }
     let spec = fit::load(&args.fit)?;
     let quiet = args.report.quiet || args.report.json;
+    if args.dry_run {
+        if !args.report.quiet {
+            println!(
+                "fit \"{}\": {} ({}) against {} points of {}",
+                spec.title,
+                spec.experiment.base_origin,
+                spec.protocol,
+                spec.fitted_points().len(),
+                spec.data_path.display()
+            );
+            for p in &spec.parameters {
+                println!(
+                    "    {} start {} {u} in [{}, {}] {u} ({} scale)",
+                    p.key,
+                    p.start,
+                    p.lower,
+                    p.upper,
+                    match p.scale {
+                        fit::Scale::Log => "log",
+                        fit::Scale::Linear => "linear",
+                    },
+                    u = p.unit()
+                );
+            }
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
     if !quiet {
         eprintln!(
             "cellmech {}: fit \"{}\": {} parameters, {} measured points, at most {} runs, into {}",
