@@ -94,7 +94,11 @@ fn check_accepts_every_shipped_example() {
 #[test]
 fn fit_rejects_a_misspelt_key_before_running() {
     let dir = scratch("fit-bad-key");
-    std::fs::write(dir.join("curve.csv"), "elongation [um],force [nN]\n0,0\n1,10\n2,20\n").unwrap();
+    std::fs::write(
+        dir.join("curve.csv"),
+        "elongation [um],force [nN]\n0,0\n1,10\n2,20\n",
+    )
+    .unwrap();
     let fit = dir.join("fit.toml");
     std::fs::write(
         &fit,
@@ -105,7 +109,10 @@ fn fit_rejects_a_misspelt_key_before_running() {
     let o = cellmech(&["fit", fit.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let message = stderr(&o);
-    assert!(message.contains("shear_modulos") && message.contains("did you mean"), "{message}");
+    assert!(
+        message.contains("shear_modulos") && message.contains("did you mean"),
+        "{message}"
+    );
     assert!(!out.join("runs").exists(), "nothing ran");
 }
 

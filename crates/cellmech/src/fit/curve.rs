@@ -236,6 +236,19 @@ pub fn read_simulated(path: &Path, x: &str, y: &str) -> Result<Curve, String> {
 }
 
 impl Curve {
+    /// A curve without points whose columns are the run's `x` and `y` (a run that wrote
+    /// no curve, or a measured curve still to be made).
+    pub fn empty(x: &str, y: &str) -> Curve {
+        Curve {
+            x: Vec::new(),
+            y: Vec::new(),
+            x_name: x.into(),
+            y_name: y.into(),
+            x_dim: column_dimension(x),
+            y_dim: column_dimension(y),
+        }
+    }
+
     /// y at `at` by linear interpolation between the two neighbouring points; `None`
     /// outside `[x₀, x_last]` (a curve that stopped early does not reach the point).
     pub fn interpolate(&self, at: f64) -> Option<f64> {

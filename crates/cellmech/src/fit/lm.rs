@@ -145,6 +145,9 @@ pub enum LmError<E> {
 /// evaluated (a penalised, rejected point, e.g. an FE run that stopped early).
 pub type Evaluation = Result<Vec<f64>, String>;
 
+/// One evaluation inside the optimiser: the point, counted.
+type Evaluator<'a, E> = dyn FnMut(&DVector<f64>) -> Result<Evaluation, LmError<E>> + 'a;
+
 /// Minimises ½ Σ r(x)² from `x0` within `[lower, upper]`. `steps[j]` is the absolute
 /// finite-difference step of variable j. `model` returns `Ok(Ok(r))`, `Ok(Err(why))` for
 /// a point it cannot evaluate, or `Err(e)` to abort.
@@ -334,7 +337,7 @@ fn fd_jacobian<E>(
     lower: &[f64],
     upper: &[f64],
     steps: &[f64],
-    eval: &mut dyn FnMut(&DVector<f64>) -> Result<Evaluation, LmError<E>>,
+    eval: &mut Evaluator<'_, E>,
 ) -> Result<DMatrix<f64>, LmError<E>> {
     let (m, n) = (r.len(), x.len());
     let mut jacobian = DMatrix::zeros(m, n);

@@ -107,14 +107,7 @@ impl<'a> RunCache<'a> {
         let curve = if file.exists() {
             read_simulated(&file, x, y).map_err(FitError::Output)?
         } else {
-            Curve {
-                x: Vec::new(),
-                y: Vec::new(),
-                x_name: x.clone(),
-                y_name: y.clone(),
-                x_dim: super::curve::column_dimension(x),
-                y_dim: super::curve::column_dimension(y),
-            }
+            Curve::empty(x, y)
         };
         let residuals = residuals(self.spec, &curve).map_err(|why| match &record.error {
             Some(e) => format!("{why} (the run stopped: {e})"),

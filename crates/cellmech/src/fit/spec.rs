@@ -305,14 +305,7 @@ pub fn parse_with(
         read_measured(&data_path, file.columns.as_ref())
             .map_err(|e| invalid(format!("`data`: {e}")))?
     } else {
-        Curve {
-            x: Vec::new(),
-            y: Vec::new(),
-            x_name: simulated[0].clone(),
-            y_name: simulated[1].clone(),
-            x_dim: super::curve::column_dimension(&simulated[0]),
-            y_dim: super::curve::column_dimension(&simulated[1]),
-        }
+        Curve::empty(&simulated[0], &simulated[1])
     };
     for (k, (name, dim)) in [(&simulated[0], data.x_dim), (&simulated[1], data.y_dim)]
         .into_iter()
