@@ -134,7 +134,7 @@ pub fn fit(args: &FitArgs) -> anyhow::Result<ExitCode> {
             }
         }
         eprintln!(
-            "rms {:.4e}, R² {:.6}; {} evaluations ({} solved, {} from runs/), {} iterations, {:?}{}; {:.1} s",
+            "rms {:.4e}, R² {:.6}; {} evaluations ({} solved, {} from runs/), {} iterations, {}{}; {:.1} s",
             outcome.rms,
             outcome.r_squared,
             outcome.evaluations,

@@ -86,6 +86,19 @@ pub enum StopReason {
     MaxIterations,
 }
 
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            StopReason::CostChange => "cost-change",
+            StopReason::StepSize => "step-size",
+            StopReason::Gradient => "gradient",
+            StopReason::NoProgress => "no-progress",
+            StopReason::MaxEvaluations => "max-evaluations",
+            StopReason::MaxIterations => "max-iterations",
+        })
+    }
+}
+
 impl StopReason {
     /// Whether the stop is a convergence (not a spent budget).
     pub fn converged(self) -> bool {

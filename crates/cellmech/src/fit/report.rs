@@ -71,8 +71,8 @@ pub fn write_report(
     let points = |x: &[f64], y: &[f64]| x.iter().copied().zip(y.iter().copied()).collect();
     let plot = PlotSpec {
         title: outcome.title.clone(),
-        x_label: format!("{} ({xu})", spec.simulated[0]),
-        y_label: format!("{} ({yu})", spec.simulated[1]),
+        x_label: format!("{} ({xu})", plain_name(&spec.data.x_name)),
+        y_label: format!("{} ({yu})", plain_name(&spec.data.y_name)),
         series: vec![
             Series {
                 label: "measured".into(),
@@ -103,6 +103,16 @@ pub fn write_report(
     cellmech_io::write_json_atomic(&out.join("fit.json"), &with_files).map_err(out_err)?;
     files.sort();
     Ok(files)
+}
+
+/// A measured column's name without its unit (`force [pN]` → `force`).
+fn plain_name(header: &str) -> &str {
+    header
+        .split(['[', '('])
+        .next()
+        .map(str::trim)
+        .filter(|n| !n.is_empty())
+        .unwrap_or(header)
 }
 
 /// `value ± error unit` with the error's leading digits.
@@ -155,7 +165,7 @@ fn markdown(o: &FitOutcome) -> String {
     }
     let _ = writeln!(
         s,
-        "\nRMS residual {:.4e}, R² {:.6}; {} FE evaluations ({} solved now, the rest from `runs/`), {} iterations, stopped: {:?} ({}); wall time {:.1} s.\n",
+        "\nRMS residual {:.4e}, R² {:.6}; {} FE evaluations ({} solved now, the rest from `runs/`), {} iterations, stopped: {} ({}); wall time {:.1} s.\n",
         o.rms,
         o.r_squared,
         o.evaluations,

@@ -161,7 +161,8 @@ pub fn residuals(spec: &FitSpec, curve: &Curve) -> Result<Vec<f64>, String> {
         * points
             .iter()
             .map(|&i| spec.data.y[i].abs())
-            .fold(0.0, f64::max);
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE);
     points
         .iter()
         .map(|&i| {
