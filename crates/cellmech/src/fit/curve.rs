@@ -214,14 +214,7 @@ pub fn read_simulated(path: &Path, x: &str, y: &str) -> Result<Curve, String> {
         })
     };
     let (ix, iy) = (find(x)?, find(y)?);
-    let mut curve = Curve {
-        x: Vec::new(),
-        y: Vec::new(),
-        x_name: x.into(),
-        y_name: y.into(),
-        x_dim: column_dimension(x),
-        y_dim: column_dimension(y),
-    };
+    let mut curve = Curve::empty(x, y);
     for (_, row) in &table.rows {
         let (vx, vy) = (row[ix], row[iy]);
         if !(vx.is_finite() && vy.is_finite()) {
