@@ -92,6 +92,79 @@ pub enum Command {
     ///   cellmech study my-study.toml --collect --from a/ --from b/ --out merged/
     #[command(verbatim_doc_comment)]
     Study(StudyArgs),
+    /// Fit model parameters to a measured force curve (docs/fitting.md).
+    ///
+    /// FIT is a TOML file: the experiment (`base` = a built-in example or a scenario file,
+    /// and a `[set]` table of dotted keys, as in a study), the measured curve (`data`, a CSV
+    /// file whose header gives each column's unit), the parameters to fit with start and
+    /// bounds, and optionally the fitted range. A bounded Levenberg-Marquardt optimiser
+    /// runs the experiment once per evaluation; every run is kept in OUT/runs/HASH/ with a
+    /// completion record, so a rerun into the same OUT resumes without solving again.
+    /// Writes fit.json, fit-history.csv, fit.csv, fit.svg/png and fit.md. Exit code 1 when
+    /// the optimiser stops without converging.
+    ///
+    /// Example (examples/fit-tension.toml):
+    ///   base = "suspended-tension"
+    ///   data = "fit-tension-curve.csv"        # header: elongation [um],force [nN]
+    ///   range = ["0 um", "10 um"]
+    ///   [set]
+    ///   "cell.core_divisions" = 4             # (and shell/outer layers: the coarse cell)
+    ///   "protocol.elongation" = "10 um"
+    ///   [[parameter]]
+    ///   key = "cell.cytoplasm.shear_modulus"
+    ///   start = "0.24 kPa"
+    ///   lower = "0.02 kPa"
+    ///   upper = "2 kPa"
+    ///   [[parameter]]
+    ///   key = "cell.membrane.youngs_modulus"
+    ///   start = "650 kPa"
+    ///   lower = "50 kPa"
+    ///   upper = "20000 kPa"
+    ///
+    ///   cellmech fit examples/fit-tension.toml --out out/fit        # ~18 runs, 1-2 min
+    ///   cellmech fit examples/fit-tension.toml --out out/fit        # again: all cached
+    ///   cellmech fit examples/fit-tension.toml --dry-run            # check only
+    ///   cellmech fit examples/fit-tension.toml --out out/fit --json --quiet
+    ///   cellmech fit examples/fit-tension.toml --synthetic my.csv --at "0.17 kPa" \
+    ///       --at "1000 kPa" --noise "0.3 nN" --seed 14             # a test curve
+    #[command(verbatim_doc_comment)]
+    Fit(FitArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    /// Fit file (TOML).
+    pub fit: PathBuf,
+    /// Output directory (the runs go to OUT/runs/).
+    #[arg(short, long, default_value = "cellmech-fit")]
+    pub out: PathBuf,
+    /// Solver threads per FE run (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Check the fit file, its data and every parameter key (at the start and both
+    /// bounds) and print what would be fitted, without running anything.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Instead of fitting, write a synthetic curve to FILE: the experiment run at --at
+    /// values, interpolated at --points evenly spaced points over `range` (or the whole
+    /// curve), plus Gaussian noise (--noise, --seed). The fit's `data` need not exist.
+    #[arg(long, value_name = "FILE")]
+    pub synthetic: Option<PathBuf>,
+    /// With --synthetic: a parameter value with its unit, once per [[parameter]] in order
+    /// (e.g. --at "0.17 kPa" --at "1000 kPa").
+    #[arg(long, value_name = "VALUE")]
+    pub at: Vec<String>,
+    /// With --synthetic: standard deviation of the noise, in the force's unit (e.g. "0.3 nN").
+    #[arg(long, default_value = "0 nN")]
+    pub noise: String,
+    /// With --synthetic: seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// With --synthetic: number of points.
+    #[arg(long, default_value_t = 40)]
+    pub points: usize,
+    #[command(flatten)]
+    pub report: ReportArgs,
 }
 
 #[derive(Debug, Args)]

@@ -76,10 +76,44 @@ fn check_accepts_every_shipped_example() {
     for entry in std::fs::read_dir(examples()).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().and_then(|e| e.to_str()) == Some("toml") {
-            let o = cellmech(&["check", path.to_str().unwrap(), "--quiet"]);
+            // Fit files (docs/fitting.md) are checked by `cellmech fit --dry-run`.
+            let is_fit = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("fit-"));
+            let o = if is_fit {
+                cellmech(&["fit", path.to_str().unwrap(), "--dry-run", "--quiet"])
+            } else {
+                cellmech(&["check", path.to_str().unwrap(), "--quiet"])
+            };
             assert!(o.status.success(), "{}: {}", path.display(), stderr(&o));
         }
     }
+}
+
+#[test]
+fn fit_rejects_a_misspelt_key_before_running() {
+    let dir = scratch("fit-bad-key");
+    std::fs::write(
+        dir.join("curve.csv"),
+        "elongation [um],force [nN]\n0,0\n1,10\n2,20\n",
+    )
+    .unwrap();
+    let fit = dir.join("fit.toml");
+    std::fs::write(
+        &fit,
+        "base = \"suspended-tension\"\ndata = \"curve.csv\"\n[[parameter]]\nkey = \"cell.cytoplasm.shear_modulos\"\nstart = \"0.2 kPa\"\nlower = \"0.1 kPa\"\nupper = \"1 kPa\"\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = cellmech(&["fit", fit.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let message = stderr(&o);
+    assert!(
+        message.contains("shear_modulos") && message.contains("did you mean"),
+        "{message}"
+    );
+    assert!(!out.join("runs").exists(), "nothing ran");
 }
 
 /// Writes a scenario (and optional extra files) and runs `cellmech check` on it.

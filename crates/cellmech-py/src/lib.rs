@@ -591,6 +591,109 @@ fn parameters(name: &str) -> PyResult<String> {
         })
 }
 
+/// Runs a fit (from a file when `text` is `None`, else from `text` with `origin` and
+/// `base_dir`) with the GIL released; `progress(event)` after every FE run. Returns
+/// `fit.json` as text.
+fn run_fit_native(
+    py: Python<'_>,
+    spec: cellmech::fit::FitSpec,
+    out_dir: PathBuf,
+    progress: Option<Py<PyAny>>,
+    threads: usize,
+) -> PyResult<String> {
+    use cellmech::fit::{FitError, FitOptions, RunEvent};
+    if let Some(p) = &progress {
+        if !p.bind(py).is_callable() {
+            return Err(PyTypeError::new_err("`progress` must be callable or None"));
+        }
+    }
+    let mut callback_error: Option<PyErr> = None;
+    let options = FitOptions {
+        out: out_dir,
+        threads,
+    };
+    let outcome = py.detach(|| {
+        let mut on_run = |e: &RunEvent| {
+            let Some(callback) = &progress else {
+                return;
+            };
+            if callback_error.is_some() {
+                return;
+            }
+            let result = Python::attach(|py| -> PyResult<()> {
+                let info = PyDict::new(py);
+                info.set_item("evaluation", e.evaluation)?;
+                info.set_item("values", e.values.clone())?;
+                info.set_item("hash", &e.hash)?;
+                info.set_item("cached", e.cached)?;
+                info.set_item("status", &e.status)?;
+                info.set_item("rejected", e.rejected.clone())?;
+                info.set_item("rms", e.rms)?;
+                info.set_item("wall_time_s", e.wall_time_s)?;
+                callback.call1(py, (info,))?;
+                Ok(())
+            });
+            if let Err(err) = result {
+                callback_error = Some(err);
+            }
+        };
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            cellmech::fit::run_fit(&spec, &options, &mut on_run)
+        }))
+    });
+    if let Some(e) = callback_error {
+        return Err(e);
+    }
+    let outcome = match outcome {
+        Err(_) => {
+            return Err(RunError::new_err(format!(
+                "fitting {}: internal error (please report it)",
+                spec.origin
+            )))
+        }
+        Ok(Err(e @ (FitError::Invalid { .. } | FitError::Experiment(_)))) => {
+            return Err(ScenarioError::new_err(e.to_string()))
+        }
+        Ok(Err(e)) => return Err(RunError::new_err(chain(&e))),
+        Ok(Ok(outcome)) => outcome,
+    };
+    serde_json::to_string(&outcome)
+        .map_err(|e| RunError::new_err(format!("cannot encode the fit: {e}")))
+}
+
+/// Fits the parameters of a fit file (`cellmech fit FILE --out out_dir`); returns
+/// `fit.json` as text.
+#[pyfunction]
+#[pyo3(signature = (path, out_dir, progress=None, threads=0))]
+fn fit_file(
+    py: Python<'_>,
+    path: PathBuf,
+    out_dir: PathBuf,
+    progress: Option<Py<PyAny>>,
+    threads: usize,
+) -> PyResult<String> {
+    let spec = cellmech::fit::load(&path).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    run_fit_native(py, spec, out_dir, progress, threads)
+}
+
+/// The same from fit TOML text (`base_dir` anchors `base` and `data` paths).
+#[pyfunction]
+#[pyo3(signature = (text, out_dir, origin="<string>", base_dir=None, progress=None, threads=0))]
+fn fit_text(
+    py: Python<'_>,
+    text: &str,
+    out_dir: PathBuf,
+    origin: &str,
+    base_dir: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
+    threads: usize,
+) -> PyResult<String> {
+    let dir = base_dir.unwrap_or_else(|| PathBuf::from("."));
+    let spec = cellmech::fit::spec::parse(text, origin, &dir)
+        .map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    run_fit_native(py, spec, out_dir, progress, threads)
+}
+
 /// The native module.
 #[pymodule]
 fn _cellmech(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -606,5 +709,7 @@ fn _cellmech(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(check_protocol, m)?)?;
     m.add_function(wrap_pyfunction!(experiment, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_file, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_text, m)?)?;
     Ok(())
 }

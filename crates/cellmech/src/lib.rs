@@ -19,6 +19,7 @@ pub mod bench;
 pub mod cell;
 pub mod examples;
 pub mod experiment;
+pub mod fit;
 pub mod mesh_file;
 pub mod model;
 pub mod output;

@@ -4,6 +4,7 @@ mod bench;
 mod build;
 mod check;
 mod example;
+mod fit;
 mod params;
 mod run;
 mod study;
@@ -22,5 +23,6 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Bench(args) => bench::bench(&args),
         Command::Params(args) => params::params(&args),
         Command::Study(args) => study::study(&args),
+        Command::Fit(args) => fit::fit(&args),
     }
 }

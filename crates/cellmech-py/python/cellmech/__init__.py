@@ -51,6 +51,7 @@ __all__ = [
     "Analysis",
     "AnalysisError",
     "Cell",
+    "FitResult",
     "MicropipetteTension",
     "MicroplateCompression",
     "Prestress",
@@ -62,6 +63,7 @@ __all__ = [
     "adherent_cell",
     "afm_indentation",
     "experiment",
+    "fit",
     "load",
     "micropipette_tension",
     "microplate_compression",
@@ -468,3 +470,160 @@ def experiment(
             None if families is None else dict(families),
         )
     )
+
+
+FitProgressCallback = Callable[[Dict[str, Any]], Any]
+
+
+class FitResult:
+    """What :func:`fit` found, read from ``fit.json`` (``cellmech fit`` writes the same).
+
+    Values are in cellmech's internal units (um, nN, kPa; pure numbers as fractions):
+    ``units[i]`` names the unit of parameter ``i``.
+
+    Attributes:
+        keys: the fitted parameters' dotted scenario keys, in the fit file's order.
+        units: their units.
+        values: fitted values (float64 array).
+        errors: standard errors (NaN where the data do not determine them).
+        start, lower, upper: the start values and bounds (arrays).
+        at_bound: whether each value ended on a bound (its error is then meaningless).
+        correlation: correlation matrix of the estimates (p x p array, NaN if undetermined).
+        covariance: covariance matrix in the parameters' units.
+        rms, r_squared, sigma: RMS residual, coefficient of determination, and
+            sqrt(SSR / (m - p)).
+        evaluations: FE evaluations the optimiser made (cached ones included).
+        runs: FE runs solved by this call (the others came from ``out_dir/runs/``).
+        iterations, stop, converged: the optimiser's iterations, why it stopped
+            (``"cost-change"``, ``"step-size"``, ``"gradient"``, ``"no-progress"``,
+            ``"max-evaluations"``, ``"max-iterations"``) and whether that is convergence.
+        wall_time_s: wall time of this call.
+        curve: the measured and fitted curve as numpy arrays: ``x``, ``measured``,
+            ``fitted`` (the model at the fitted values, at the measured x), ``in_range``
+            (bool), and the model's own curves ``model_x``/``model_y`` (fitted values) and
+            ``start_x``/``start_y`` (start values).
+        history: iteration history: ``iteration``, ``evaluations``, ``cost``, ``rms``,
+            ``damping`` (arrays) and ``values`` (iterations x p array).
+        out_dir: the output directory; ``raw``: ``fit.json`` as a dict.
+    """
+
+    keys: List[str]
+    units: List[str]
+    values: np.ndarray
+    errors: np.ndarray
+    start: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    at_bound: np.ndarray
+    correlation: np.ndarray
+    covariance: np.ndarray
+    rms: float
+    r_squared: float
+    sigma: Optional[float]
+    evaluations: int
+    runs: int
+    iterations: int
+    stop: str
+    converged: bool
+    wall_time_s: float
+    curve: Dict[str, np.ndarray]
+    history: Dict[str, np.ndarray]
+    out_dir: str
+    raw: Dict[str, Any]
+
+    def __init__(self, fit_json: str, out_dir: str) -> None:
+        raw = json.loads(fit_json)
+        self.raw = raw
+        self.out_dir = out_dir
+        params = raw["parameters"]
+        p = len(params)
+        self.keys = [q["key"] for q in params]
+        self.units = [q["unit"] for q in params]
+
+        def column(name: str) -> np.ndarray:
+            return np.asarray([np.nan if q[name] is None else q[name] for q in params], dtype=np.float64)
+
+        self.values = column("value")
+        self.errors = column("standard_error")
+        self.start = column("start")
+        self.lower = column("lower")
+        self.upper = column("upper")
+        self.at_bound = np.asarray([q["at_bound"] for q in params], dtype=bool)
+        nan = np.full((p, p), np.nan)
+        self.correlation = nan.copy() if raw["correlation"] is None else np.asarray(raw["correlation"], dtype=np.float64)
+        self.covariance = nan.copy() if raw["covariance"] is None else np.asarray(raw["covariance"], dtype=np.float64)
+        self.rms = float(raw["rms"])
+        self.r_squared = float("nan") if raw["r_squared"] is None else float(raw["r_squared"])
+        self.sigma = raw["sigma"]
+        self.evaluations = int(raw["evaluations"])
+        self.runs = int(raw["fe_runs_solved"])
+        self.iterations = int(raw["iterations"])
+        self.stop = raw["stop"]
+        self.converged = bool(raw["converged"])
+        self.wall_time_s = float(raw["wall_time_s"])
+        c = raw["curve"]
+        self.curve = {
+            k: np.asarray([np.nan if v is None else v for v in c[k]], dtype=np.float64)
+            for k in ("x", "measured", "fitted", "model_x", "model_y", "start_x", "start_y")
+        }
+        self.curve["in_range"] = np.asarray(c["in_range"], dtype=bool)
+        h = raw["history"]
+        self.history = {
+            k: np.asarray([np.nan if row[k] is None else row[k] for row in h], dtype=np.float64)
+            for k in ("iteration", "evaluations", "cost", "rms", "damping")
+        }
+        self.history["values"] = np.asarray([row["values"] for row in h], dtype=np.float64).reshape(len(h), p)
+
+    @property
+    def parameters(self) -> Dict[str, Any]:
+        """``key -> (value, standard error, unit)``."""
+        return {k: (float(v), float(e), u) for k, v, e, u in zip(self.keys, self.values, self.errors, self.units)}
+
+    def __repr__(self) -> str:
+        parts = ", ".join(f"{k} = {v:.5g} ± {e:.2g} {u}" for k, (v, e, u) in self.parameters.items())
+        state = "converged" if self.converged else f"not converged ({self.stop})"
+        return f"<cellmech.FitResult {state}: {parts}; {self.evaluations} evaluations, {self.runs} FE runs solved>"
+
+
+def fit(
+    fit: Union[PathLike, str],
+    out_dir: PathLike,
+    progress: Optional[FitProgressCallback] = None,
+    *,
+    threads: int = 0,
+    base_dir: Optional[PathLike] = None,
+) -> FitResult:
+    """Fits model parameters to a measured curve: ``cellmech fit FIT --out out_dir``.
+
+    Args:
+        fit: a fit file (TOML, see ``docs/fitting.md``), or the fit's TOML text itself
+            (anything that contains a newline is taken as text).
+        out_dir: output directory: the FE runs go to ``out_dir/runs/HASH/`` and are reused
+            by a later call (an interrupted fit resumes), the report is ``fit.json``,
+            ``fit-history.csv``, ``fit.csv``, ``fit.svg``/``fit.png`` and ``fit.md``.
+        progress: called after every FE evaluation with a dict: ``evaluation``, ``values``,
+            ``hash``, ``cached``, ``status``, ``rejected`` (why the run cannot be used, or
+            None), ``rms``, ``wall_time_s``.
+        threads: solver threads per FE run (0: all cores).
+        base_dir: with TOML text, the directory ``base`` and ``data`` paths are relative
+            to (default: the current directory).
+
+    Returns:
+        a :class:`FitResult`.
+
+    Raises:
+        ScenarioError: the fit file, its data or a parameter key is invalid.
+        RunError: the fit could not proceed (the start run does not reach the fitted
+            range, a derivative cannot be evaluated, outputs cannot be written).
+    """
+    out = os.fspath(out_dir)
+    if isinstance(fit, str) and "\n" in fit:
+        raw = _cellmech.fit_text(
+            fit, out, "<string>", None if base_dir is None else os.fspath(base_dir), progress, threads
+        )
+    else:
+        path = os.fspath(fit)
+        if not os.path.exists(path):
+            raise ScenarioError(f"{path}: expected a fit file or fit TOML text; found no such file")
+        raw = _cellmech.fit_file(path, out, progress, threads)
+    return FitResult(raw, out)

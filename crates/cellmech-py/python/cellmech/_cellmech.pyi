@@ -68,3 +68,22 @@ def experiment(
 
 def parameters(name: str) -> str:
     """A declared parameter table as commented TOML."""
+
+def fit_file(
+    path: str,
+    out_dir: str,
+    progress: Optional[Callable[[Dict[str, Any]], Any]] = None,
+    threads: int = 0,
+) -> str:
+    """Runs the fit of a fit file with the GIL released; returns ``fit.json`` as text.
+    Raises ScenarioError (invalid fit) or RunError (the fit cannot proceed)."""
+
+def fit_text(
+    text: str,
+    out_dir: str,
+    origin: str = "<string>",
+    base_dir: Optional[str] = None,
+    progress: Optional[Callable[[Dict[str, Any]], Any]] = None,
+    threads: int = 0,
+) -> str:
+    """The same from fit TOML text (``base_dir`` anchors relative paths)."""

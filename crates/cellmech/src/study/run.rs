@@ -89,14 +89,19 @@ pub enum CaseEvent {
     Ran,
 }
 
-/// Stable shard of a case name (FNV-1a), so a case stays in its shard when cases are added.
-pub fn shard_of(name: &str, shards: usize) -> usize {
+/// Stable 64-bit hash of `bytes` (FNV-1a): the same on every machine, build and run.
+pub fn stable_hash(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf29ce484222325;
-    for b in name.bytes() {
+    for &b in bytes {
         h ^= u64::from(b);
         h = h.wrapping_mul(0x100000001b3);
     }
-    (h % shards.max(1) as u64) as usize
+    h
+}
+
+/// Stable shard of a case name (FNV-1a), so a case stays in its shard when cases are added.
+pub fn shard_of(name: &str, shards: usize) -> usize {
+    (stable_hash(name.as_bytes()) % shards.max(1) as u64) as usize
 }
 
 /// The folder of a case.
@@ -172,15 +177,27 @@ pub fn run_cases(
         .collect()
 }
 
-/// Runs one case unless it is recorded. A case folder without a record is the remains of
-/// an interrupted run: it is emptied and the case run again.
+/// Runs one case into its study folder `OUT/cases/NAME` unless it is recorded.
 fn run_case(
     spec: &StudySpec,
     case: &Case,
     out: &Path,
     threads: usize,
 ) -> Result<(CaseRecord, CaseEvent), StudyError> {
-    let dir = case_dir(out, &case.name);
+    run_case_in(spec, case, &case_dir(out, &case.name), threads)
+}
+
+/// Runs one case in `dir` unless `dir` holds its record: writes `case.toml`, runs it with
+/// `threads` solver threads (0: all cores) and writes `record.json` last, atomically. A
+/// folder without a record is the remains of an interrupted run: it is emptied and the
+/// case run again. A failed analysis is a record with `status = "failed"`, not an error.
+pub fn run_case_in(
+    spec: &StudySpec,
+    case: &Case,
+    dir: &Path,
+    threads: usize,
+) -> Result<(CaseRecord, CaseEvent), StudyError> {
+    let dir = dir.to_path_buf();
     if let Some(record) = read_record(&dir) {
         return Ok((record, CaseEvent::Skipped));
     }
