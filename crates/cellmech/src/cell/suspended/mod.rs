@@ -618,15 +618,20 @@ impl SuspendedCell {
             .find(|m| m.family == family::MEMBRANE)
             .map(|m| m.faces.clone())
             .unwrap_or_default();
-        // The prestress ramp in two increments: 22 Newton iterations on the default mesh
-        // instead of 64 in ten (each increment took 6-7, so 0.1 never grew), the same
-        // equilibrium to 3e-10 (docs/performance.md); a whole ramp in one increment fails
-        // and is cut back, which costs more.
+        // The prestress ramp in two increments when the MT nodes are free: 22 Newton
+        // iterations on the default mesh instead of 64 in ten (each increment took 6-7, so
+        // 0.1 never grew), the same equilibrium to 3e-10 (docs/performance.md); a whole ramp
+        // in one increment fails and is cut back, which costs more. MTs held by the gel
+        // (embedded, foundation) buckle with the gel's contraction: their prestress keeps
+        // the small increments it converges with (with 0.5 it ends out of equilibrium).
+        let held_mts =
+            self.coupling.microtubules_embedded || self.coupling.microtubule_foundation.is_some();
+        let (initial_increment, max_increment) = if held_mts { (0.1, 0.2) } else { (0.5, 1.0) };
         let prestress = crate::model::StepSpec {
             name: "prestress".into(),
             control: cellmech_fem::solve::StepControl {
-                initial_increment: 0.5,
-                max_increment: 1.0,
+                initial_increment,
+                max_increment,
                 ..self.step_control()
             },
             fixes: supports.clone(),
