@@ -226,18 +226,18 @@ fn a_step_that_starts_in_equilibrium_converges_at_once() {
     assert!((p.reaction(6) - 20.0).abs() < 1e-10);
 }
 
-#[test]
-fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
-    // Three springs in series (2 nN/um each, series stiffness 2/3): pulling the end by up to
-    // 1 um, stop where the end reaction is 0.4 nN, i.e. at an end displacement of 0.6 um.
-    let nodes = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [2.0, 0.0, 0.0],
-        [3.0, 0.0, 0.0],
-    ];
-    let mut p = problem(&nodes, &[[0, 1], [1, 2], [2, 3]], 2.0);
-    let mut step = Step::new("pull-to-force");
+/// Four collinear nodes 1 um apart: the spring chain of the stop-condition tests.
+const CHAIN: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [2.0, 0.0, 0.0],
+    [3.0, 0.0, 0.0],
+];
+
+/// A step pulling the chain's end (DOF 9) by up to 1 um along x, node 0 held, the rest held
+/// across the chain.
+fn pull_end_step(name: &str) -> Step {
+    let mut step = Step::new(name);
     step.prescribed = (0..3).map(|c| (c, Motion::Hold)).collect();
     step.prescribed
         .extend([(9, Motion::By(1.0)), (10, Motion::Hold), (11, Motion::Hold)]);
@@ -245,6 +245,15 @@ fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
         step.prescribed
             .extend([(3 * node + 1, Motion::Hold), (3 * node + 2, Motion::Hold)]);
     }
+    step
+}
+
+#[test]
+fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
+    // Three springs in series (2 nN/um each, series stiffness 2/3): pulling the end by up to
+    // 1 um, stop where the end reaction is 0.4 nN, i.e. at an end displacement of 0.6 um.
+    let mut p = problem(&CHAIN, &[[0, 1], [1, 2], [2, 3]], 2.0);
+    let mut step = pull_end_step("pull-to-force");
     step.stop = Some(StopCondition {
         monitor: Monitor::ReactionSum(vec![9]),
         target: 0.4,
@@ -332,15 +341,8 @@ fn a_stop_condition_across_a_jump_ends_at_the_first_state_beyond_it() {
     // The monitor jumps from 1 to 10 at an end displacement of 0.37 um; the target 5 lies in
     // the jump. The step ends just beyond it (within JUMP_WIDTH of the 1 um travel), in a
     // few dozen increments: the bracket is halved once the regula falsi creeps.
-    let nodes = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [2.0, 0.0, 0.0],
-        [3.0, 0.0, 0.0],
-    ];
-    let pairs = [[0, 1], [1, 2], [2, 3]];
     let terms: Vec<Box<dyn Term>> = vec![
-        Box::new(springs(&nodes, &pairs, 2.0)),
+        Box::new(springs(&CHAIN, &[[0, 1], [1, 2], [2, 3]], 2.0)),
         Box::new(Staircase { dof: 9, at: 0.37 }),
     ];
     let mut p = Problem::new(
@@ -349,14 +351,7 @@ fn a_stop_condition_across_a_jump_ends_at_the_first_state_beyond_it() {
         Box::new(DenseSolver::default()),
     )
     .unwrap();
-    let mut step = Step::new("to-the-jump");
-    step.prescribed = (0..3).map(|c| (c, Motion::Hold)).collect();
-    step.prescribed
-        .extend([(9, Motion::By(1.0)), (10, Motion::Hold), (11, Motion::Hold)]);
-    for node in 1..3 {
-        step.prescribed
-            .extend([(3 * node + 1, Motion::Hold), (3 * node + 2, Motion::Hold)]);
-    }
+    let mut step = pull_end_step("to-the-jump");
     step.control.initial_increment = 0.1;
     step.control.max_increment = 0.1;
     step.stop = Some(StopCondition {
