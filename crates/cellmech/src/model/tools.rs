@@ -156,6 +156,8 @@ pub fn tool_program(tool: &str, steps: &[Vec<ToolMotion>]) -> Vec<[f64; 3]> {
 pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactError> {
     let motions: Vec<Vec<ToolMotion>> = model.steps.iter().map(|s| s.tools.clone()).collect();
     let held = nodes_with_stiffness(model);
+    // Node sets hold mesh nodes (a `Mesh` invariant), so `get` never misses.
+    let is_held = |n: usize| held.get(n).copied().unwrap_or(false);
     model
         .tools
         .iter()
@@ -163,14 +165,14 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
             // A tool on the nodes of a switched-off filament family only (e.g. the plates'
             // companions on the MT nodes without MTs) has nothing to touch.
             let nodes = contact_nodes(&model.mesh, &tool.node_set);
-            !tool.faces.is_empty() || nodes.is_empty() || nodes.iter().any(|&n| held[n])
+            !tool.faces.is_empty() || nodes.is_empty() || nodes.iter().any(|&n| is_held(n))
         })
         .map(|tool| {
             let program = tool_program(&tool.name, &motions);
             let term = if tool.faces.is_empty() {
                 let nodes: Vec<usize> = contact_nodes(&model.mesh, &tool.node_set)
                     .into_iter()
-                    .filter(|&n| held[n])
+                    .filter(|&n| is_held(n))
                     .collect();
                 let reference = nodes.iter().map(|&n| model.mesh.nodes[n]).collect();
                 RigidContact::new(

@@ -359,9 +359,12 @@ const FREE_FILAMENT_NODES: &str = "microtubule_interior";
 
 impl PoleTest {
     /// Places the tools (`shape(center, normal)` for each pole, the normal pointing into the
-    /// cell; node sets `pole_minus`, `pole_plus`: surface nodes beyond half the radius) and
-    /// writes the approach: both tools move in (up to a quarter diameter each) until the
-    /// moving one feels `contact_force`, the supports still holding the cell.
+    /// cell; node sets `pole_minus`, `pole_plus`: surface nodes beyond half the radius), with
+    /// frictionless companions on the free MT nodes when `filament_contact`, and writes the
+    /// approach, the supports still holding the cell: with [`Approach::FirstContact`] the
+    /// moving tool (`approach`) and then the fixed one (`seat`) move in until their smallest
+    /// gap to the cell is 0; with [`Approach::ContactForce`] both move in together (up to a
+    /// quarter diameter each) until the moving one feels `contact_force`.
     pub fn approach(
         cell: &mut BuiltCell,
         names: [&str; 2],
