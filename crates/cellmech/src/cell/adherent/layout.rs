@@ -205,7 +205,7 @@ pub struct AdherentCellGeometry {
     /// ABs as `[FA node, FA node]`.
     pub bundles: Vec<[usize; 2]>,
     /// The density variant's extra ABs as `[dome node, dome node]` (none by default; see
-    /// [`choose_extra_bundles`]).
+    /// `choose_extra_bundles`).
     pub extra_bundles: Vec<[usize; 2]>,
     /// Centrosome position (appended as a node by [`Self::append_microtubule_nodes`]).
     pub centrosome: V3,

@@ -62,7 +62,7 @@ impl DensityParams {
     }
 }
 
-/// The extra filaments placed by [`place`].
+/// The extra filaments placed by `place`.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DensityLayout {
     /// Extra AFs as `[surface node, surface node]` (lower node first).
@@ -124,7 +124,7 @@ fn too_many(
     }
 }
 
-/// What [`place`] needs besides the counts.
+/// What `place` needs besides the counts.
 pub(crate) struct DensityInput<'a> {
     /// The mesh with the FAs snapped.
     pub mesh: &'a Mesh,
