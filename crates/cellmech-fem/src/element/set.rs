@@ -4,7 +4,7 @@
 //!
 //! # Split between kernel and set
 //! * The **kernel** is a pure function of one element's reference data and DOF values
-//!   (`hex8_evaluate`, `truss_evaluate`, `membrane_quad4_evaluate`, `beam_evaluate_with`,
+//!   (`hex8_evaluate`, `truss_evaluate`, `membrane_evaluate`, `beam_evaluate_with`,
 //!   `spring_evaluate`, …): no allocation, no global data, fixed-size buffers.
 //! * The **set** owns the elements' node lists, the per-element reference data and the
 //!   laws, and implements [`ElementSet`]: [`ElementSet::evaluate_element`] picks element

@@ -294,13 +294,7 @@ fn constraints(
             name: spec.name.clone(),
             message,
         };
-        let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
-        let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
-        let nodes: Vec<usize> = mesh
-            .node_sets
-            .get(&spec.node_set)
-            .map(|set| set.iter().copied().filter(|&n| used[n]).collect())
-            .unwrap_or_default();
+        let (locator, nodes) = embedding_hosts(mesh, spec, &used).map_err(fail)?;
         let report = embed_translations(
             &mut constraints,
             &locator,
@@ -321,6 +315,23 @@ fn constraints(
         });
     }
     Ok((Some(constraints), summaries))
+}
+
+/// The host locator of an embedding and the nodes of its node set that an enabled structure
+/// uses (the nodes of a switched-off family are not embedded).
+fn embedding_hosts(
+    mesh: &cellmech_fem::mesh::Mesh,
+    spec: &EmbedSpec,
+    used: &[bool],
+) -> Result<(HostLocator, Vec<usize>), String> {
+    let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
+    let locator = HostLocator::new(mesh, &blocks).map_err(|e| e.to_string())?;
+    let nodes = mesh
+        .node_sets
+        .get(&spec.node_set)
+        .map(|set| set.iter().copied().filter(|&n| used[n]).collect())
+        .unwrap_or_default();
+    Ok((locator, nodes))
 }
 
 /// The elastic ties of the embeddings with a foundation modulus, one [`HostTieSet`] per
@@ -353,13 +364,7 @@ fn foundation_ties(
                 "expected a positive foundation modulus; found {modulus} kPa"
             )));
         }
-        let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
-        let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
-        let nodes: Vec<usize> = mesh
-            .node_sets
-            .get(&spec.node_set)
-            .map(|set| set.iter().copied().filter(|&n| used[n]).collect())
-            .unwrap_or_default();
+        let (locator, nodes) = embedding_hosts(mesh, spec, &used).map_err(fail)?;
         let mut ties = Vec::with_capacity(nodes.len());
         let (mut shared, mut max_overshoot) = (0, 0.0f64);
         for &n in &nodes {

@@ -371,7 +371,10 @@ impl Observer for OutputWriter {
         // use from its end (or, when it ends early, from the next step on).
         match self.reference_step {
             Some(r) if report.step_index <= r => {
-                self.reference_candidate = Some(problem.u().to_vec());
+                // One buffer for all the increments up to the reference state.
+                let candidate = self.reference_candidate.get_or_insert_with(Vec::new);
+                candidate.clear();
+                candidate.extend_from_slice(problem.u());
                 if step_end && r == report.step_index {
                     self.u_reference = self.reference_candidate.take();
                 }

@@ -319,49 +319,6 @@ pub fn membrane_evaluate<const N: usize, const Q: usize>(
     Ok(energy)
 }
 
-/// Energy, residual (12) and tangent (12×12, row-major) of a bilinear membrane quadrilateral:
-/// `Π_e = Σ_q w_q H μ/2 (tr C + 1/det C − 3)` with shear modulus `mu` (kPa), reference
-/// thickness `thickness` (µm) and nodal displacements `u` (µm, node-major).
-pub fn membrane_quad4_evaluate(
-    reference: &Quad4Reference,
-    mu: f64,
-    thickness: f64,
-    u: &[f64],
-    residual: &mut [f64],
-    tangent: Option<&mut [f64]>,
-) -> Result<f64, KernelError> {
-    membrane_evaluate(
-        reference,
-        MembraneLaw::Elastic,
-        mu,
-        thickness,
-        u,
-        residual,
-        tangent,
-    )
-}
-
-/// Energy, residual (9) and tangent (9×9, row-major) of a constant-strain membrane triangle;
-/// same law and arguments as [`membrane_quad4_evaluate`].
-pub fn membrane_tri3_evaluate(
-    reference: &Tri3Reference,
-    mu: f64,
-    thickness: f64,
-    u: &[f64],
-    residual: &mut [f64],
-    tangent: Option<&mut [f64]>,
-) -> Result<f64, KernelError> {
-    membrane_evaluate(
-        reference,
-        MembraneLaw::Elastic,
-        mu,
-        thickness,
-        u,
-        residual,
-        tangent,
-    )
-}
-
 /// Area-weighted element averages of the membrane state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MembraneState {

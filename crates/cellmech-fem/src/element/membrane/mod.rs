@@ -44,7 +44,7 @@ mod set;
 mod tests;
 
 pub use kernel::{
-    membrane_evaluate, membrane_quad4_evaluate, membrane_state, membrane_tri3_evaluate,
-    MembraneLaw, MembranePoint, MembraneReference, MembraneState, Quad4Reference, Tri3Reference,
+    membrane_evaluate, membrane_state, MembraneLaw, MembranePoint, MembraneReference,
+    MembraneState, Quad4Reference, Tri3Reference,
 };
 pub use set::{MembraneError, MembraneSet};

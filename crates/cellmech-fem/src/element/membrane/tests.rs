@@ -53,7 +53,7 @@ fn membrane_rigid_rotation_gives_zero_energy_and_residual() {
         })
         .collect();
     let mut res = [0.0; 12];
-    let e = membrane_quad4_evaluate(&rq, 5.0, 0.3, &u, &mut res, None).unwrap();
+    let e = membrane_evaluate(&rq, MembraneLaw::Elastic, 5.0, 0.3, &u, &mut res, None).unwrap();
     assert!(e.abs() < 1e-13, "quad energy {e:e}");
     assert!(res.iter().all(|r| r.abs() < 1e-13), "quad residual {res:?}");
     let u: Vec<f64> = TILTED_TRI
@@ -63,7 +63,7 @@ fn membrane_rigid_rotation_gives_zero_energy_and_residual() {
             (0..3).map(move |i| y[i] - x[i])
         })
         .collect();
-    let e = membrane_tri3_evaluate(&rt, 5.0, 0.3, &u, &mut res, None).unwrap();
+    let e = membrane_evaluate(&rt, MembraneLaw::Elastic, 5.0, 0.3, &u, &mut res, None).unwrap();
     assert!(e.abs() < 1e-13 && res[..9].iter().all(|r| r.abs() < 1e-13));
 }
 
@@ -87,7 +87,7 @@ fn membrane_homogeneous_biaxial_state_matches_closed_form() {
         .collect();
     let r = Quad4Reference::new(x0).unwrap();
     let mut res = [0.0; 12];
-    let e = membrane_quad4_evaluate(&r, mu, h, &u, &mut res, None).unwrap();
+    let e = membrane_evaluate(&r, MembraneLaw::Elastic, mu, h, &u, &mut res, None).unwrap();
     let w = 0.5 * mu * (l1 * l1 + l2 * l2 + 1.0 / (l1 * l1 * l2 * l2) - 3.0);
     assert!(
         (e - 4.0 * h * w).abs() < 1e-12 * e,
