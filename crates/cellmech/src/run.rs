@@ -73,6 +73,10 @@ pub struct SystemSize {
     pub embedding: Vec<crate::model::EmbedSummary>,
     /// Hanging nodes of a locally refined mesh, tied in their 3 translations.
     pub hanging_nodes: usize,
+    /// Filament families stress-free in the prestressed cell: the first pass (absent when
+    /// every part is stress-free in the mesh).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prestressed_reference: Option<crate::model::PrestressedReferenceReport>,
 }
 
 /// Why a run failed.
@@ -247,6 +251,7 @@ pub fn run_with_threads(
             constrained_dofs: model.problem.num_constrained_dofs(),
             embedding: model.embedding.clone(),
             hanging_nodes: model.hanging_nodes,
+            prestressed_reference: model.prestressed_reference.clone(),
         },
         steps: writer.stats.clone(),
         wall_time_s: start.elapsed().as_secs_f64(),

@@ -156,6 +156,7 @@ fn model() -> Analysis {
             shape_probes: Vec::new(),
             embedded: Vec::new(),
             hanging: Vec::new(),
+            prestressed_reference: None,
         },
         cell: None,
         echo: toml::Table::new(),

@@ -126,6 +126,7 @@ fn model() -> (ModelSpec, usize) {
             foundation_modulus: None,
         }],
         hanging: refined.hanging,
+        prestressed_reference: None,
     };
     (spec, hanging)
 }

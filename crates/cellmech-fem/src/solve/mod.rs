@@ -23,7 +23,7 @@ pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};
 pub use problem::{Problem, Timings, JUMP_WIDTH};
 pub use stabilize::StabilizationReport;
-pub use step::{Monitor, Motion, NodalLoad, Step, StopCondition};
+pub use step::{GuessPath, Monitor, Motion, NodalLoad, Step, StopCondition};
 
 #[cfg(test)]
 mod tests;

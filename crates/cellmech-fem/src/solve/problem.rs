@@ -357,6 +357,9 @@ impl Problem {
             if let Some(st) = &mut self.stabilizer {
                 st.start_increment(&saved_u, t - time);
             }
+            if let Some(guess) = &step.guess {
+                guess.write_at(t, &self.prescribed, &mut self.u);
+            }
             let outcome = self.newton_increment(&target_u, &target_f, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
                 let g = gap(self).unwrap_or(g0);
@@ -598,6 +601,21 @@ impl Problem {
             return Err(invalid(format!(
                 "prescribed DOF {dof} does not exist ({n} DOFs)"
             )));
+        }
+        if let Some(g) = &step.guess {
+            let times_ok = g.times.len() == g.values.len()
+                && g.times.windows(2).all(|w| w[0] < w[1])
+                && g.times.iter().all(|t| t.is_finite());
+            if !times_ok
+                || g.values
+                    .iter()
+                    .any(|v| v.len() != n || v.iter().any(|x| !x.is_finite()))
+            {
+                return Err(invalid(format!(
+                    "the guess path needs increasing finite knot times, one per state, and {n} \
+                     finite values per state"
+                )));
+            }
         }
         if let Some(stop) = &step.stop {
             if self.monitor(&stop.monitor).is_none() {

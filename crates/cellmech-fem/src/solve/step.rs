@@ -39,6 +39,49 @@ pub struct Step {
     /// End the step early where a monitored quantity reaches a target (e.g. "retract the
     /// pipette until its force is zero"); the motions are then applied only up to there.
     pub stop: Option<StopCondition>,
+    /// Where each increment's Newton iterations start: the DOF values of a known nearby
+    /// path (e.g. the same step solved on a simpler model) instead of the last converged
+    /// state. Prescribed DOFs keep their motion. `None`: the last converged state.
+    pub guess: Option<GuessPath>,
+}
+
+/// DOF values along a step, piecewise linear in the step time between knots (the first
+/// knot's values before it, the last's after it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuessPath {
+    /// Knot times, increasing.
+    pub times: Vec<f64>,
+    /// DOF values at each knot (one value per DOF of the problem).
+    pub values: Vec<Vec<f64>>,
+}
+
+impl GuessPath {
+    /// Writes the interpolated values at step time `t` into `u` (DOFs where `skip` is true
+    /// are left alone).
+    pub fn write_at(&self, t: f64, skip: &[bool], u: &mut [f64]) {
+        let Some(last) = self.values.last() else {
+            return;
+        };
+        let k = self.times.partition_point(|&tk| tk < t);
+        let (a, b, w) = if k == 0 {
+            (&self.values[0], &self.values[0], 0.0)
+        } else if k >= self.times.len() {
+            (last, last, 0.0)
+        } else {
+            let (t0, t1) = (self.times[k - 1], self.times[k]);
+            let w = if t1 > t0 {
+                ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            (&self.values[k - 1], &self.values[k], w)
+        };
+        for (d, value) in u.iter_mut().enumerate() {
+            if !skip[d] {
+                *value = a[d] + w * (b[d] - a[d]);
+            }
+        }
+    }
 }
 
 /// A scalar quantity of a converged state.
@@ -74,6 +117,7 @@ impl Step {
             loads: Vec::new(),
             control: StepControl::default(),
             stop: None,
+            guess: None,
         }
     }
 }

@@ -6,10 +6,12 @@
 
 pub mod filament;
 pub mod filaments;
+pub mod prestressed_reference;
 mod spec;
 pub mod structures;
 pub mod tools;
 
+pub use prestressed_reference::PrestressedReference;
 pub use spec::{
     curve_columns, CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat,
     ShapeProbeSpec, StepSpec,
@@ -116,6 +118,19 @@ pub struct BuiltModel {
     pub hanging_nodes: usize,
     /// Every enabled filament and where its elements are in the family terms.
     pub filaments: filaments::FilamentIndex,
+    /// Filament families stress-free in the prestressed cell: what the first pass did.
+    pub prestressed_reference: Option<PrestressedReferenceReport>,
+}
+
+/// What [`prestressed_reference::carried_positions`] did, for `summary.json`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PrestressedReferenceReport {
+    /// The families stress-free in the prestressed cell.
+    pub families: Vec<String>,
+    /// Largest distance the first step carries one of their nodes (µm).
+    pub max_carried_um: f64,
+    /// Wall time of the first pass (s).
+    pub wall_time_s: f64,
 }
 
 /// The outcome of one [`EmbedSpec`], for `summary.json`.
@@ -157,6 +172,9 @@ pub enum BuildError {
         /// What went wrong.
         message: String,
     },
+    /// The prestressed geometry of filaments could not be found.
+    #[error("filaments stress-free in the prestressed cell: {0}")]
+    PrestressedReference(String),
     /// The hanging nodes of a refined mesh could not be tied.
     #[error("hanging nodes: {0}")]
     Hanging(#[from] HangingTieError),
@@ -200,13 +218,39 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
     terms.extend(tools::contact_terms(model)?);
     let filaments = filaments::FilamentIndex::new(structures, mesh, terms.len())
         .map_err(BuildError::Filaments)?;
-    terms.extend(structures::structure_terms(mesh, structures, &dof_map)?);
+    let carried = match &model.prestressed_reference {
+        Some(spec) => {
+            let start = std::time::Instant::now();
+            let (knots, farthest) = prestressed_reference::carried_positions(model, spec)?;
+            let positions: Vec<(f64, Vec<[f64; 3]>)> = knots
+                .iter()
+                .map(|k| (k.time, k.positions(&mesh.nodes)))
+                .collect();
+            Some((
+                spec.families.clone(),
+                knots,
+                positions,
+                farthest,
+                start.elapsed().as_secs_f64(),
+            ))
+        }
+        None => None,
+    };
+    terms.extend(structures::structure_terms_carried(
+        mesh,
+        structures,
+        &dof_map,
+        carried
+            .as_ref()
+            .map(|(families, _, knots, _, _)| structures::CarriedFamilies { families, knots })
+            .as_ref(),
+    )?);
     let (ties, tie_summaries) = foundation_ties(model)?;
     terms.extend(ties);
     let (constraints, mut embedding) = constraints(model, &dof_map)?;
     embedding.extend(tie_summaries);
     let set = |name: &str| mesh.node_sets.get(name).map(Vec::as_slice).unwrap_or(&[]);
-    let steps = model
+    let mut steps: Vec<Step> = model
         .steps
         .iter()
         .map(|s| {
@@ -215,6 +259,14 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
             Ok(step)
         })
         .collect::<Result<_, BuildError>>()?;
+    if let (Some((_, knots, _, _, _)), Some(first)) = (&carried, steps.first_mut()) {
+        // Each increment of the first step starts from the first pass's state at its time,
+        // in which the carried filaments sit on their moving stress-free geometry.
+        first.guess = Some(cellmech_fem::solve::GuessPath {
+            times: knots.iter().map(|k| k.time).collect(),
+            values: knots.iter().map(|k| k.dof_values(&dof_map)).collect(),
+        });
+    }
     let curves = model
         .output
         .curves
@@ -265,6 +317,13 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         embedding,
         hanging_nodes: model.hanging.len(),
         filaments,
+        prestressed_reference: carried.map(|(families, _, _, farthest, wall)| {
+            PrestressedReferenceReport {
+                families,
+                max_carried_um: farthest,
+                wall_time_s: wall,
+            }
+        }),
     })
 }
 

@@ -37,6 +37,9 @@ pub struct ModelSpec {
     /// its masters in every translation (see `docs/local-refinement.md`). Empty for a
     /// conforming mesh.
     pub hanging: Vec<HangingNode>,
+    /// Beam families stress-free in the state the first step carries the continuum to
+    /// (see [`super::prestressed_reference`]); `None`: stress-free in the mesh.
+    pub prestressed_reference: Option<super::PrestressedReference>,
 }
 
 /// Nodes embedded in host continuum blocks: each node's translations follow the host

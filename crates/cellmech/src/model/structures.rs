@@ -176,6 +176,38 @@ pub fn structure_terms(
     spec: &StructuresSpec,
     dof_map: &DofMap,
 ) -> Result<Vec<Box<dyn Term>>, StructureBuildError> {
+    structure_terms_carried(mesh, spec, dof_map, None)
+}
+
+/// [`structure_terms`] with beam families whose stress-free geometry moves in the first
+/// step (`carried`).
+pub fn structure_terms_carried(
+    mesh: &Mesh,
+    spec: &StructuresSpec,
+    dof_map: &DofMap,
+    carried: Option<&CarriedFamilies>,
+) -> Result<Vec<Box<dyn Term>>, StructureBuildError> {
+    let mut terms = filament_terms(mesh, spec, dof_map, carried)?;
+    terms.extend(membrane_terms(mesh, spec)?);
+    Ok(terms)
+}
+
+/// Beam families whose stress-free geometry moves during the first step to these node
+/// positions ([`super::prestressed_reference`]).
+pub struct CarriedFamilies<'a> {
+    /// The families.
+    pub families: &'a [String],
+    /// Knots of the move: step time and the position of every node (µm).
+    pub knots: &'a [(f64, Vec<[f64; 3]>)],
+}
+
+/// Engine terms for every enabled filament family, in family order.
+fn filament_terms(
+    mesh: &Mesh,
+    spec: &StructuresSpec,
+    dof_map: &DofMap,
+    carried: Option<&CarriedFamilies>,
+) -> Result<Vec<Box<dyn Term>>, StructureBuildError> {
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
     for family in filament_families(spec) {
         let groups = spec
@@ -195,9 +227,14 @@ pub fn structure_terms(
         }
         match section {
             Some(section) => {
-                let set =
+                let mut set =
                     BeamSet::from_coordinates(family, family, &mesh.nodes, &pairs, None, section)?;
                 set.check_dof_map(dof_map)?;
+                if let Some(c) = carried.filter(|c| c.families.iter().any(|f| f == family)) {
+                    let knots: Vec<(f64, &[[f64; 3]])> =
+                        c.knots.iter().map(|(t, x)| (*t, x.as_slice())).collect();
+                    set.morph_reference_through(0, &knots)?;
+                }
                 terms.push(Box::new(set));
             }
             None => {
@@ -214,6 +251,15 @@ pub fn structure_terms(
             }
         }
     }
+    Ok(terms)
+}
+
+/// Engine terms for every enabled membrane layer.
+fn membrane_terms(
+    mesh: &Mesh,
+    spec: &StructuresSpec,
+) -> Result<Vec<Box<dyn Term>>, StructureBuildError> {
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
     for m in spec.membranes.iter().filter(|m| m.enabled) {
         let set = MembraneSet::new(
             m.name.clone(),

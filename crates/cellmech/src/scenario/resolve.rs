@@ -129,14 +129,15 @@ pub fn resolve(
             super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
         }
     };
-    let (supports, shape_probes, embedded, hanging) = match &cell {
+    let (supports, shape_probes, embedded, hanging, prestressed_reference) = match &cell {
         Some(c) => (
             c.model.supports.clone(),
             c.model.shape_probes.clone(),
             c.model.embedded.clone(),
             c.model.hanging.clone(),
+            c.model.prestressed_reference.clone(),
         ),
-        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+        None => Default::default(),
     };
     let study = cell.map(|c| crate::analysis::CellStudy {
         description: c.description,
@@ -156,6 +157,7 @@ pub fn resolve(
             shape_probes,
             embedded,
             hanging,
+            prestressed_reference,
         },
         cell: study,
         echo,

@@ -54,6 +54,14 @@ pub const BEAM_DOFS: usize = 12;
 /// Invalid beam input (section, reference geometry, set definition).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BeamError {
+    /// A moving stress-free geometry is malformed.
+    #[error("beam set '{set}': moving reference: {message}")]
+    Morph {
+        /// Set name.
+        set: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A section or geometric quantity must be finite and positive.
     #[error("beam: {name} must be finite and > 0, found {value}")]
     NonPositive {

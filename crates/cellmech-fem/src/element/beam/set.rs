@@ -32,6 +32,55 @@ pub struct BeamSet {
     pub local_strain: LocalStrain,
     /// Whether the set contributes to the problem.
     pub enabled: bool,
+    /// A stress-free geometry that moves during one analysis step, if any
+    /// ([`BeamSet::morph_reference_in_step`]).
+    pub morph: Option<ReferenceMorph>,
+}
+
+/// The stress-free geometry of a beam set moving from the mesh to target positions during
+/// one analysis step (and staying at the last one after it): beams that are stress-free in
+/// a deformed state of the model that the step reaches, e.g. filaments that polymerised in
+/// a cell after its prestress contracted it. The move is piecewise linear in the step time
+/// through knots `(tₖ, Yₖ)` (from `(0, X)`), so that it can follow a path recorded in an
+/// earlier run. Positions stay measured from the mesh: at step time `t` element `e` is
+/// evaluated on the reference through `X + s(t)` with its translations `u − s(t)`, where
+/// `s(t)` interpolates the knots' moves `Yₖ − X`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceMorph {
+    /// Analysis step during which the geometry moves.
+    pub step: usize,
+    /// Element references on the mesh (t = 0).
+    pub start: Vec<BeamReference>,
+    /// Knot times, increasing in (0, 1]; the last is the end of the move.
+    pub times: Vec<f64>,
+    /// Per knot and element, the move `Yₖ − X` of nodes a and b (µm).
+    pub shifts: Vec<Vec<[[f64; 3]; 2]>>,
+    /// Step time the references are at now (−1: not yet positioned).
+    pub time: f64,
+    /// Per element, the current move `s(t)`.
+    pub current: Vec<[[f64; 3]; 2]>,
+}
+
+impl ReferenceMorph {
+    /// The move of element `e` at step time `t`, interpolated between the knots.
+    fn shift_at(&self, e: usize, t: f64) -> [[f64; 3]; 2] {
+        let k = self.times.partition_point(|&tk| tk < t);
+        let (t0, s0) = if k == 0 {
+            (0.0, [[0.0; 3]; 2])
+        } else {
+            (self.times[k - 1], self.shifts[k - 1][e])
+        };
+        let Some(&t1) = self.times.get(k) else {
+            return self.shifts.last().map(|s| s[e]).unwrap_or([[0.0; 3]; 2]);
+        };
+        let s1 = self.shifts[k][e];
+        let w = if t1 > t0 {
+            ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        std::array::from_fn(|n| std::array::from_fn(|i| s0[n][i] + w * (s1[n][i] - s0[n][i])))
+    }
 }
 
 /// Per-element results at a state.
@@ -106,7 +155,97 @@ impl BeamSet {
             section,
             local_strain: LocalStrain::default(),
             enabled: true,
+            morph: None,
         })
+    }
+
+    /// Makes the stress-free geometry move from the mesh to `target` (coordinates of every
+    /// node, µm) during analysis step `step`, linearly in its time: see [`ReferenceMorph`].
+    pub fn morph_reference_in_step(
+        &mut self,
+        step: usize,
+        target: &[[f64; 3]],
+    ) -> Result<(), BeamError> {
+        self.morph_reference_through(step, &[(1.0, target)])
+    }
+
+    /// Makes the stress-free geometry move during analysis step `step` through the knots
+    /// `(time, coordinates of every node)`, times increasing in (0, 1]: see
+    /// [`ReferenceMorph`]. Each element keeps its reference triad's e₂ direction as `up`,
+    /// so the triad turns with the element instead of jumping between global axes.
+    pub fn morph_reference_through(
+        &mut self,
+        step: usize,
+        knots: &[(f64, &[[f64; 3]])],
+    ) -> Result<(), BeamError> {
+        let start = self.reference.clone();
+        let mut times = Vec::with_capacity(knots.len());
+        let mut shifts = Vec::with_capacity(knots.len());
+        for &(time, target) in knots {
+            if !(time > times.last().copied().unwrap_or(0.0) && time <= 1.0) {
+                return Err(BeamError::Morph {
+                    set: self.name.clone(),
+                    message: format!(
+                        "knot times must increase within (0, 1]; found {time} after {:?}",
+                        times.last()
+                    ),
+                });
+            }
+            let mut shift = Vec::with_capacity(self.nodes.len());
+            for (e, (pair, r)) in self.nodes.iter().zip(&start).enumerate() {
+                let mut s = [[0.0; 3]; 2];
+                for (k, (&node, x)) in pair.iter().zip([r.x_a, r.x_b]).enumerate() {
+                    let y = target.get(node).ok_or(BeamError::NodeOutOfRange {
+                        set: self.name.clone(),
+                        element: e,
+                        node,
+                        num_nodes: target.len(),
+                    })?;
+                    s[k] = std::array::from_fn(|i| y[i] - x[i]);
+                }
+                // Every knot's geometry must itself be a valid element.
+                Self::reference_at(r, &s).map_err(|source| BeamError::Element {
+                    set: self.name.clone(),
+                    element: e,
+                    source: Box::new(source),
+                })?;
+                shift.push(s);
+            }
+            times.push(time);
+            shifts.push(shift);
+        }
+        self.morph = Some(ReferenceMorph {
+            step,
+            current: vec![[[0.0; 3]; 2]; start.len()],
+            start,
+            times,
+            shifts,
+            time: -1.0,
+        });
+        Ok(())
+    }
+
+    /// The reference of an element whose start reference is `r`, moved by `shift`.
+    fn reference_at(r: &BeamReference, shift: &[[f64; 3]; 2]) -> Result<BeamReference, BeamError> {
+        let up = [r.triad[0][1], r.triad[1][1], r.triad[2][1]];
+        BeamReference::new(
+            std::array::from_fn(|i| r.x_a[i] + shift[0][i]),
+            std::array::from_fn(|i| r.x_b[i] + shift[1][i]),
+            Some(up),
+        )
+    }
+
+    /// Element `e`'s DOF values relative to its current reference (the morph's move taken
+    /// off the translations).
+    fn relative_dofs(&self, e: usize, u_e: &[f64]) -> [f64; BEAM_DOFS] {
+        let mut u: [f64; BEAM_DOFS] = std::array::from_fn(|i| u_e.get(i).copied().unwrap_or(0.0));
+        if let Some(m) = &self.morph {
+            for i in 0..3 {
+                u[i] -= m.current[e][0][i];
+                u[6 + i] -= m.current[e][1][i];
+            }
+        }
+        u
     }
 
     /// Sets `dofs_per_node[n] = 6` for every node of the set (input for
@@ -182,7 +321,7 @@ impl BeamSet {
                 let r = &self.reference[e];
                 let mut u_e = [0.0; BEAM_DOFS];
                 self.gather(e, u, dof_map, &mut u_e);
-                let d = beam_deformation(r, &u_e)?;
+                let d = beam_deformation(r, &self.relative_dofs(e, &u_e))?;
                 let l = r.length;
                 let (ta, tb) = (d.theta_a, d.theta_b);
                 let moment = |x: &[f64; 3], y: &[f64; 3]| {
@@ -239,6 +378,31 @@ impl ElementSet for BeamSet {
     const ELEMENT_DOFS: usize = BEAM_DOFS;
     const NODE_DOFS: usize = 6;
 
+    /// Moves the stress-free geometry of a [`ReferenceMorph`] to the increment's step time.
+    fn on_load_state(&mut self, state: &crate::term::LoadState) {
+        let Some(m) = &mut self.morph else {
+            return;
+        };
+        let t = match state.step_index.cmp(&m.step) {
+            std::cmp::Ordering::Less => 0.0,
+            std::cmp::Ordering::Equal => state.step_time.clamp(0.0, 1.0),
+            std::cmp::Ordering::Greater => 1.0,
+        };
+        if t == m.time {
+            return;
+        }
+        for (e, (r, current)) in m.start.iter().zip(&mut self.reference).enumerate() {
+            let shift = m.shift_at(e, t);
+            // Validated at every knot; an element degenerate in between keeps its last
+            // reference.
+            if let Ok(moved) = Self::reference_at(r, &shift) {
+                *current = moved;
+                m.current[e] = shift;
+            }
+        }
+        m.time = t;
+    }
+
     fn set_name(&self) -> &str {
         &self.name
     }
@@ -265,7 +429,7 @@ impl ElementSet for BeamSet {
             }
             return Ok(0.0);
         }
-        let u: [f64; BEAM_DOFS] = std::array::from_fn(|i| u_e.get(i).copied().unwrap_or(0.0));
+        let u = self.relative_dofs(e, u_e);
         beam_evaluate_with(
             self.local_strain,
             &self.section,

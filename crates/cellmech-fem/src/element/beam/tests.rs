@@ -343,3 +343,72 @@ fn beam_set_scalar_outputs_report_the_family_statistics() {
     set.enabled = false;
     assert!(set.scalar_outputs(&u, &map).is_empty());
 }
+
+#[test]
+fn a_beam_whose_reference_morphs_in_a_step_is_stress_free_at_the_target_and_stiff_from_there() {
+    use crate::dof::DofMap;
+    use crate::linsolve::FaerSparseSolver;
+    use crate::solve::{Motion, NullObserver, Problem, Step};
+    use crate::term::Term;
+    // A bent two-element cantilever along x, clamped at node 0. Its stress-free geometry
+    // moves in step 0 to a longer, differently bent one (the target); nothing else loads
+    // it, so it must end exactly there, unstressed. In step 1 its tip is pulled along the
+    // target's last chord: the force is EA·δ/L of the target element (a chord-strain law).
+    let x = [[0.0, 0.0, 0.0], [2.0, 0.3, 0.0], [4.0, 0.0, 0.0]];
+    let y = [[0.0, 0.0, 0.0], [2.2, 0.1, 0.2], [4.5, 0.4, 0.1]];
+    let section = mt();
+    let mut set =
+        BeamSet::from_coordinates("mts", "microtubule", &x, &[[0, 1], [1, 2]], None, section)
+            .unwrap();
+    set.local_strain = LocalStrain::Chord;
+    set.morph_reference_in_step(0, &y).unwrap();
+    let map = DofMap::with_counts(&[6, 6, 6]);
+    let mut problem = Problem::new(
+        map.clone(),
+        vec![Box::new(set)],
+        Box::new(FaerSparseSolver::default()),
+    )
+    .unwrap();
+    problem.set_length_scale(5.0);
+    let mut grow = Step::new("grow");
+    grow.prescribed = (0..6).map(|c| (map.dof(0, c), Motion::Hold)).collect();
+    grow.control.initial_increment = 0.25;
+    problem.run_step(&grow, &mut NullObserver).unwrap();
+    for n in 1..3 {
+        for c in 0..3 {
+            let moved = x[n][c] + problem.u()[map.dof(n, c)];
+            assert!(
+                (moved - y[n][c]).abs() < 1e-9,
+                "node {n} component {c}: {moved} vs {}",
+                y[n][c]
+            );
+        }
+    }
+    let set = problem.terms()[0].scalar_outputs(problem.u(), &map);
+    let max_force = set
+        .iter()
+        .filter(|(n, _)| n.contains("axial_force"))
+        .map(|(_, v)| v.abs())
+        .fold(0.0, f64::max);
+    assert!(max_force < 1e-9 * section.axial_stiffness(), "{set:?}");
+    // Step 1: pull the tip by δ along the last target chord.
+    let chord: [f64; 3] = std::array::from_fn(|i| y[2][i] - y[1][i]);
+    let length = chord.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let delta = 1e-4;
+    let mut pull = Step::new("pull");
+    pull.prescribed = (0..6).map(|c| (map.dof(0, c), Motion::Hold)).collect();
+    pull.prescribed
+        .extend((0..3).map(|c| (map.dof(2, c), Motion::By(delta * chord[c] / length))));
+    pull.prescribed
+        .extend((0..3).map(|c| (map.dof(1, c), Motion::Hold)));
+    pull.control.initial_increment = 1.0;
+    problem.run_step(&pull, &mut NullObserver).unwrap();
+    let force: f64 = (0..3)
+        .map(|c| problem.reaction(map.dof(2, c)) * chord[c] / length)
+        .sum();
+    let expected = section.axial_stiffness() * delta / length;
+    assert!(
+        (force - expected).abs() < 1e-3 * expected,
+        "tip force {force} vs EA·δ/L {expected} (L = {length} of the target)"
+    );
+}

@@ -285,6 +285,7 @@ impl AdherentCell {
                 }],
                 embedded: self.coupling.embeddings(),
                 hanging: geometry.hanging.clone(),
+                prestressed_reference: None,
             },
             description,
             surface_set: "dome".into(),

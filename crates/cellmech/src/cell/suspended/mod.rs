@@ -447,6 +447,10 @@ pub struct Coupling {
     pub embedded_nodes: EmbeddedNodes,
     /// The centrosome node follows the cytoplasm it lies in.
     pub centrosome_tied: bool,
+    /// The MTs are stress-free in the prestressed cell (`microtubules.stress_free =
+    /// "prestressed-cell"`) instead of in the mesh: see
+    /// [`crate::model::prestressed_reference`].
+    pub microtubules_prestressed: bool,
 }
 
 /// Which interior MT nodes follow the continuum (`[cell.microtubules] embedded_nodes`).
@@ -473,6 +477,16 @@ pub enum EmbeddedNodes {
 }
 
 impl Coupling {
+    /// The MT family stress-free in the prestressed cell, when chosen.
+    pub fn prestressed_reference(&self) -> Option<crate::model::PrestressedReference> {
+        self.microtubules_prestressed
+            .then(|| crate::model::PrestressedReference {
+                families: vec![family::MICROTUBULE.into()],
+                host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
+                tolerance: EMBED_TOLERANCE,
+            })
+    }
+
     /// The model's embeddings (node sets `microtubule_anchors` or `microtubule_interior`,
     /// and `centrosome`; `microtubule_interior` with elastic ties for the foundation).
     pub fn embeddings(&self) -> Vec<crate::model::EmbedSpec> {
@@ -624,8 +638,10 @@ impl SuspendedCell {
         // in one increment fails and is cut back, which costs more. MTs held by the gel
         // (embedded, foundation) buckle with the gel's contraction: their prestress keeps
         // the small increments it converges with (with 0.5 it ends out of equilibrium).
-        let held_mts =
-            self.coupling.microtubules_embedded || self.coupling.microtubule_foundation.is_some();
+        // MTs stress-free in the prestressed cell follow the gel without buckling.
+        let held_mts = (self.coupling.microtubules_embedded
+            || self.coupling.microtubule_foundation.is_some())
+            && !self.coupling.microtubules_prestressed;
         let (initial_increment, max_increment) = if held_mts { (0.1, 0.2) } else { (0.5, 1.0) };
         let prestress = crate::model::StepSpec {
             name: "prestress".into(),
@@ -656,6 +672,7 @@ impl SuspendedCell {
                 }],
                 embedded: self.coupling.embeddings(),
                 hanging: Vec::new(),
+                prestressed_reference: self.coupling.prestressed_reference(),
             },
             description,
             surface_set: "surface".into(),

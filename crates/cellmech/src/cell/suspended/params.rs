@@ -182,6 +182,15 @@ pub(crate) const MICROTUBULES_CENTROSOME: ParamDef = p(
     "centrosome node: free, or tied to the cytoplasm where it sits",
     "choice (spec: \"The hybrid model idea\")",
 );
+/// `microtubules.stress_free` (shared by the cell models).
+pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
+    "microtubules.stress_free",
+    K::Choice(&["unstressed-cell", "prestressed-cell"]),
+    D::Word("unstressed-cell"),
+    ANY,
+    "where the MTs are stress-free: in the unstressed cell (the mesh: the prestress contraction shortens and bends them with the gel, and MTs held by the gel buckle) or in the prestressed cell (as if they polymerised after the contraction: their stress-free shape is the mesh shape carried by the gel's contraction; they carry none of the actin prestress)",
+    "choice ([suspended cell](suspended-cell.md#microtubules-stress-free-in-the-prestressed-cell))",
+);
 /// `solver.stabilization` (shared by the cell models).
 pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)");
 /// `solver.iteration` (shared by the cell models).
@@ -398,6 +407,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         MICROTUBULES_FOUNDATION_MODULUS,
         MICROTUBULES_EMBEDDED_NODES,
         MICROTUBULES_CENTROSOME,
+        MICROTUBULES_STRESS_FREE,
         SOLVER_STABILIZATION,
         SOLVER_ITERATION,
         INTERMEDIATE_YOUNGS_MODULUS,
@@ -556,6 +566,7 @@ pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
             _ => super::EmbeddedNodes::Alternate,
         },
         centrosome_tied: v.word("microtubules.centrosome") == "tied",
+        microtubules_prestressed: v.word("microtubules.stress_free") == "prestressed-cell",
     }
 }
 

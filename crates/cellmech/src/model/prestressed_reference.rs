@@ -1,0 +1,182 @@
+//! Filaments that are stress-free in the prestressed cell.
+//!
+//! By default every part of a model is stress-free in the mesh, and the first step's
+//! prestress contracts the cell: filaments held by the gel (embedded MTs, MTs on an elastic
+//! foundation) are shortened with it and buckle long before the cell is loaded (the
+//! suspended cell's foundation-coupled MTs buckle at 0.19 nN and its prestress does not
+//! reach equilibrium). With a [`PrestressedReference`] the listed beam families are
+//! instead stress-free in the state the prestress carries the gel to, as if they had
+//! polymerised in the contracted cell (Abaqus adds such elements with `*MODEL CHANGE,
+//! ADD = STRAIN FREE`):
+//!
+//! 1. **Where the gel goes.** The model without those families runs its first step alone
+//!    (their nodes are then held by nothing and not in the problem). Each of their nodes
+//!    is carried with the material point it lies in: a continuum node moves with its own
+//!    displacement, any other node with the interpolated displacement of its host hex8.
+//! 2. **Filaments born there.** In the model itself the families' stress-free geometry
+//!    moves from the mesh to those carried positions during the first step, linearly in
+//!    its time (`cellmech_fem::element::beam::ReferenceMorph`), while the prestress ramps
+//!    in. Filaments that follow the gel (embedded, or on a foundation) end the step
+//!    unstressed up to the small difference between the two runs (what they add to the
+//!    gel's contraction); free ones end where their own equilibrium puts them.
+//!
+//! The filaments then carry nothing of the actin prestress (the tensegrity reading, in
+//! which MTs balance part of it, needs them compressed), but they are straight where they
+//! were designed straight and load-bearing from the first µm of a test.
+
+use cellmech_fem::mesh::locate::HostLocator;
+
+use super::{BuildError, ModelSpec};
+
+/// Beam families whose stress-free geometry is the prestressed one (module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrestressedReference {
+    /// Beam families, e.g. `["microtubule"]`.
+    pub families: Vec<String>,
+    /// Hex8 blocks whose material points carry their nodes.
+    pub host_blocks: Vec<String>,
+    /// Largest overshoot (natural coordinates) of a node outside its host (nodes on the
+    /// faceted surface of a curved mesh).
+    pub tolerance: f64,
+}
+
+/// The first pass's state at each converged increment of its first step (see [`Knot`]),
+/// and the largest distance a filament node is carried (µm).
+pub(super) fn carried_positions(
+    model: &ModelSpec,
+    spec: &PrestressedReference,
+) -> Result<(Vec<Knot>, f64), BuildError> {
+    let fail = |message: String| BuildError::PrestressedReference(message);
+    let mut first = model.clone();
+    first.prestressed_reference = None;
+    first.tools.clear();
+    first.steps.truncate(1);
+    let Some(step) = first.steps.first_mut() else {
+        return Err(fail(
+            "the model has no first step to carry the filaments".into(),
+        ));
+    };
+    step.tools.clear();
+    let mut nodes = Vec::new();
+    for f in first
+        .structures
+        .filaments
+        .iter_mut()
+        .filter(|f| spec.families.contains(&f.family))
+    {
+        if f.enabled {
+            nodes.extend(f.pairs.iter().flatten().copied());
+        }
+        f.enabled = false;
+    }
+    nodes.sort_unstable();
+    nodes.dedup();
+    let mesh = &model.mesh;
+    if nodes.is_empty() {
+        return Ok((
+            vec![Knot {
+                time: 1.0,
+                dofs: vec![[0.0; 6]; mesh.num_nodes()],
+            }],
+            0.0,
+        ));
+    }
+    let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
+    let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
+    // Each node's host nodes and weights (itself with weight 1 for a continuum node).
+    let mut hosts: Vec<(usize, Vec<(usize, f64)>)> = Vec::with_capacity(nodes.len());
+    for &n in &nodes {
+        if locator.is_host_node(n) {
+            hosts.push((n, vec![(n, 1.0)]));
+        } else {
+            let host = locator
+                .locate(mesh.nodes[n], spec.tolerance)
+                .map_err(|e| fail(format!("node {n}: {e}")))?;
+            hosts.push((n, host.nodes.iter().copied().zip(host.weights()).collect()));
+        }
+    }
+    let mut built = super::build(&first)?;
+    let step = built.steps[0].clone();
+    let mut recorder = Recorder {
+        hosts: &hosts,
+        num_nodes: mesh.num_nodes(),
+        knots: Vec::new(),
+        farthest: 0.0,
+    };
+    built
+        .problem
+        .run_step(&step, &mut recorder)
+        .map_err(|e| fail(format!("the first step without {:?}: {e}", spec.families)))?;
+    if recorder.knots.last().map(|k| k.time) != Some(1.0) {
+        return Err(fail("the first step did not reach its end".into()));
+    }
+    Ok((recorder.knots, recorder.farthest))
+}
+
+/// Records the carried state at every converged increment.
+struct Recorder<'a> {
+    hosts: &'a [(usize, Vec<(usize, f64)>)],
+    num_nodes: usize,
+    knots: Vec<Knot>,
+    farthest: f64,
+}
+
+/// The first pass's state at one converged increment of the first step.
+pub(super) struct Knot {
+    /// Step time.
+    pub time: f64,
+    /// Per node, its displacement and rotation (µm, rad): the first pass's values, with the
+    /// carried families' nodes moved with their material points and their rotations 0.
+    pub dofs: Vec<[f64; 6]>,
+}
+
+impl Knot {
+    /// Node positions: the mesh moved by the knot's displacements.
+    pub fn positions(&self, mesh_nodes: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        mesh_nodes
+            .iter()
+            .zip(&self.dofs)
+            .map(|(x, d)| std::array::from_fn(|c| x[c] + d[c]))
+            .collect()
+    }
+
+    /// The values in the order of `dof_map` (components a node does not have are dropped).
+    pub fn dof_values(&self, dof_map: &cellmech_fem::dof::DofMap) -> Vec<f64> {
+        let mut u = vec![0.0; dof_map.num_dofs()];
+        for (n, d) in self.dofs.iter().enumerate() {
+            for (c, &v) in d.iter().enumerate().take(dof_map.count(n)) {
+                u[dof_map.dof(n, c)] = v;
+            }
+        }
+        u
+    }
+}
+
+impl cellmech_fem::solve::Observer for Recorder<'_> {
+    fn on_increment(
+        &mut self,
+        problem: &cellmech_fem::solve::Problem,
+        report: &cellmech_fem::solve::IncrementReport<'_>,
+    ) {
+        let u = problem.u();
+        let dofs = problem.dof_map();
+        let mut state = vec![[0.0; 6]; self.num_nodes];
+        for (n, d) in state.iter_mut().enumerate() {
+            for (c, v) in d.iter_mut().enumerate().take(dofs.count(n)) {
+                *v = u[dofs.dof(n, c)];
+            }
+        }
+        for (n, weights) in self.hosts {
+            let moved: [f64; 3] =
+                std::array::from_fn(|c| weights.iter().map(|&(h, w)| w * u[dofs.dof(h, c)]).sum());
+            self.farthest = self
+                .farthest
+                .max(moved.iter().map(|v| v * v).sum::<f64>().sqrt());
+            state[*n] = [moved[0], moved[1], moved[2], 0.0, 0.0, 0.0];
+        }
+        self.knots.push(Knot {
+            time: report.step_time,
+            dofs: state,
+        });
+    }
+}
