@@ -121,3 +121,25 @@ impl Step {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_guess_path_interpolates_between_its_knots_and_holds_its_ends() {
+        let path = GuessPath {
+            times: vec![0.5, 1.0],
+            values: vec![vec![1.0, 10.0], vec![3.0, 20.0]],
+        };
+        let mut u = [0.0, -7.0];
+        let skip = [false, true];
+        // Before the first knot: its values; between knots: linear; after: the last.
+        path.write_at(0.2, &skip, &mut u);
+        assert_eq!(u, [1.0, -7.0], "a skipped DOF is left alone");
+        path.write_at(0.75, &[false, false], &mut u);
+        assert_eq!(u, [2.0, 15.0]);
+        path.write_at(1.0, &[false, false], &mut u);
+        assert_eq!(u, [3.0, 20.0]);
+    }
+}

@@ -372,3 +372,43 @@ fn a_stop_condition_across_a_jump_ends_at_the_first_state_beyond_it() {
         rec.increments.len()
     );
 }
+
+/// A guess path only moves where Newton starts: from the exact state or from a wrong one,
+/// a step ends in the same equilibrium as without it.
+#[test]
+fn a_guess_path_changes_where_newton_starts_not_where_it_ends() {
+    use crate::solve::GuessPath;
+    let run = |guess: Option<GuessPath>| {
+        let mut p = problem(&CHAIN, &[[0, 1], [1, 2], [2, 3]], 2.0);
+        let mut step = pull_end_step("pull");
+        step.guess = guess;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        (p.u().to_vec(), rec.iterations.len())
+    };
+    let (exact, _) = run(None);
+    // Interior nodes of the chain at 1/3 and 2/3 of the end's 1 um.
+    assert!((exact[3] - 1.0 / 3.0).abs() < 1e-12 && (exact[6] - 2.0 / 3.0).abs() < 1e-12);
+    let wrong: Vec<f64> = exact.iter().map(|v| 3.0 * v - 0.2).collect();
+    for values in [exact.clone(), wrong] {
+        let (u, _) = run(Some(GuessPath {
+            times: vec![1.0],
+            values: vec![values],
+        }));
+        for (a, b) in exact.iter().zip(&u) {
+            assert!((a - b).abs() <= 1e-12, "{a} vs {b}");
+        }
+    }
+    // A path with the wrong number of values is a clear error before any increment.
+    let mut p = problem(&CHAIN, &[[0, 1], [1, 2], [2, 3]], 2.0);
+    let mut step = pull_end_step("pull");
+    step.guess = Some(GuessPath {
+        times: vec![1.0],
+        values: vec![vec![0.0; 5]],
+    });
+    let msg = p
+        .run_step(&step, &mut Recorder::default())
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("guess path"), "{msg}");
+}

@@ -55,6 +55,11 @@ pub const BUILTIN: &[BuiltinStudy] = &[
         text: include_str!("../../../../studies/suspended-tension-coupling.toml"),
     },
     BuiltinStudy {
+        name: "suspended-compression-coupling",
+        summary: "compression to 50 %: free and embedded (prestressed-cell) MTs x the 8 disruption models (16 cases)",
+        text: include_str!("../../../../studies/suspended-compression-coupling.toml"),
+    },
+    BuiltinStudy {
         name: "adherent-afm-disruption",
         summary: "adherent cell, AFM at the apex to 1 um with 10 combinations of AC, AB, MT and IF removed (11 cases)",
         text: include_str!("../../../../studies/adherent-afm-disruption.toml"),

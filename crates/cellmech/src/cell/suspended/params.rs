@@ -182,7 +182,7 @@ pub(crate) const MICROTUBULES_CENTROSOME: ParamDef = p(
     "centrosome node: free, or tied to the cytoplasm where it sits",
     "choice (spec: \"The hybrid model idea\")",
 );
-/// `microtubules.stress_free` (shared by the cell models).
+/// `microtubules.stress_free` (the suspended cell; the adherent cell has no first pass yet).
 pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
     "microtubules.stress_free",
     K::Choice(&["unstressed-cell", "prestressed-cell"]),
