@@ -2,7 +2,10 @@
 //! equilibrium, and its MTs carry load there.
 //!
 //! GOAL: `[cell.microtubules] coupling = "embedded"` with the default
-//! `embedded_nodes = "alternate"` gets through the prestress as a true equilibrium.
+//! `embedded_nodes = "alternate"` gets through the prestress as a true equilibrium when the
+//! MTs are stress-free in the unstressed cell (`stress_free = "unstressed-cell"`, so that
+//! the gel's contraction loads them; born in the prestressed cell they end it unstressed:
+//! tests/prestressed_microtubules.rs).
 //! MESH: the coarse cell (448 hex8; 30 MTs of 8 beams, 90 embedded nodes). BCS: 3-2-1
 //! supports (the `prestress` protocol). REFERENCE (docs/embedded-elements.md, "The embedded
 //! cell"): free MTs carry pN (max 0.000 nN); alternate-embedded MTs carry up to 2.45 nN of
@@ -18,7 +21,8 @@ use cellmech_fem::solve::NullObserver;
 fn prestress(name: &str, coupling: &str) -> cellmech::run::RunSummary {
     let text = format!(
         "title = \"embedded\"\n[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n\
-         [cell.microtubules]\ncoupling = \"{coupling}\"\n[protocol]\nkind = \"prestress\"\n\
+         [cell.microtubules]\ncoupling = \"{coupling}\"\nstress_free = \"unstressed-cell\"\n\
+         [protocol]\nkind = \"prestress\"\n\
          [output]\nvtk_every = 0\n"
     );
     let s = parse(&text, "test.toml", std::path::Path::new(".")).unwrap();
@@ -80,7 +84,7 @@ fn tension(name: &str, coupling: &str) -> cellmech::run::RunSummary {
 fn tension_with(name: &str, microtubules: &str) -> cellmech::run::RunSummary {
     let text = format!(
         "title = \"embedded\"\n[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n\
-         [cell.microtubules]\n{microtubules}\n[protocol]\n\
+         [cell.microtubules]\nstress_free = \"unstressed-cell\"\n{microtubules}\n[protocol]\n\
          kind = \"micropipette-tension\"\n[output]\nvtk_every = 0\n"
     );
     let s = parse(&text, "test.toml", std::path::Path::new(".")).unwrap();

@@ -285,7 +285,7 @@ impl AdherentCell {
                 }],
                 embedded: self.coupling.embeddings(),
                 hanging: geometry.hanging.clone(),
-                prestressed_reference: None,
+                prestressed_reference: self.coupling.prestressed_reference(),
             },
             description,
             surface_set: "dome".into(),
