@@ -19,11 +19,10 @@ use cellmech::scenario::{parse, Scenario, ScenarioError};
 use cellmech_fem::solve::NullObserver;
 
 const COARSE: &str = "core_divisions = 4\nshell_layers = 2\nouter_layers = 2\n";
-/// The coarse cell with the membrane law and the MTs of the values pinned before the
-/// tension-field membrane and the MTs born in the prestressed cell became defaults
-/// (2026-12-02). With MTs born in the prestressed cell the free MTs' shape differs and the
-/// cap force moves by +2.2e-5 (92.35186272018959 nN), the contact grip's by +2.9e-5
-/// (41.755217162308625 nN).
+/// The coarse cell with the membrane law of the values pinned before the tension-field
+/// default (2026-12-02), and the MTs stated explicitly: with MTs born in the prestressed
+/// cell the free MTs' shape differs and the cap force moves by +2.2e-5
+/// (92.35186272018959 nN), the contact grip's by +2.9e-5 (41.755217162308625 nN).
 const COARSE_ELASTIC: &str = "core_divisions = 4\nshell_layers = 2\nouter_layers = 2\n\
      [cell.membrane]\nlaw = \"elastic\"\n[cell.microtubules]\nstress_free = \"unstressed-cell\"\n";
 const R: f64 = 0.5 * 32.264;

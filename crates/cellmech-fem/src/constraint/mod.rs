@@ -264,6 +264,16 @@ impl LinearConstraints {
         }
     }
 
+    /// Sets every slave to `Σ w u_m` of its masters (masters are never slaves, so one
+    /// pass satisfies every constraint).
+    pub fn enforce(&self, u: &mut [f64]) {
+        for c in 0..self.slaves.len() {
+            let (masters, weights) = self.constraint(c);
+            let v: f64 = masters.iter().zip(weights).map(|(&m, &w)| w * u[m]).sum();
+            u[self.slaves[c]] = v;
+        }
+    }
+
     /// Largest |u_s − Σ w u_m| over the constraints (0 when `u` satisfies them exactly).
     pub fn violation(&self, u: &[f64]) -> f64 {
         (0..self.slaves.len())
@@ -285,6 +295,11 @@ mod tests {
         let mut c = LinearConstraints::new(6);
         c.add(0, &[(1, 0.25), (2, 0.75), (1, 0.0)]).unwrap();
         assert_eq!(c.masters_of(0), Some((&[1, 2][..], &[0.25, 0.75][..])));
+        let mut u = [5.0, 2.0, 4.0, 0.0, 0.0, 0.0];
+        assert!(c.violation(&u) > 1.0);
+        c.enforce(&mut u);
+        assert_eq!(u[0], 0.25 * 2.0 + 0.75 * 4.0);
+        assert_eq!(c.violation(&u), 0.0);
         assert_eq!(
             c.add(0, &[(3, 1.0)]),
             Err(ConstraintError::AlreadySlave { slave: 0 })

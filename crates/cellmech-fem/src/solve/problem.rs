@@ -359,6 +359,10 @@ impl Problem {
             }
             if let Some(guess) = &step.guess {
                 guess.write_at(t, &self.prescribed, &mut self.u);
+                if let Some(c) = &self.condensation {
+                    // Tied DOFs follow their masters exactly, whatever the path says.
+                    c.constraints().enforce(&mut self.u);
+                }
             }
             let outcome = self.newton_increment(&target_u, &target_f, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {

@@ -186,7 +186,7 @@ pub(crate) const MICROTUBULES_CENTROSOME: ParamDef = p(
 pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
     "microtubules.stress_free",
     K::Choice(&["unstressed-cell", "prestressed-cell"]),
-    D::Word("prestressed-cell"),
+    D::Word("unstressed-cell"),
     ANY,
     "where the MTs are stress-free: in the unstressed cell (the mesh: the prestress contraction shortens and bends them with the gel, and MTs held by the gel buckle) or in the prestressed cell (as if they polymerised after the contraction: their stress-free shape is the mesh shape carried by the gel's contraction; they carry none of the actin prestress)",
     "choice ([suspended cell](suspended-cell.md#microtubules-stress-free-in-the-prestressed-cell))",
