@@ -11,7 +11,7 @@ mod spec;
 pub mod structures;
 pub mod tools;
 
-pub use prestressed_reference::PrestressedReference;
+pub use prestressed_reference::{PrestressedReference, PrestressedReferenceReport};
 pub use spec::{
     curve_columns, CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat,
     ShapeProbeSpec, StepSpec,
@@ -122,17 +122,6 @@ pub struct BuiltModel {
     pub prestressed_reference: Option<PrestressedReferenceReport>,
 }
 
-/// What [`prestressed_reference::carried_positions`] did, for `summary.json`.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct PrestressedReferenceReport {
-    /// The families stress-free in the prestressed cell.
-    pub families: Vec<String>,
-    /// Largest distance the first step carries one of their nodes (µm).
-    pub max_carried_um: f64,
-    /// Wall time of the first pass (s).
-    pub wall_time_s: f64,
-}
-
 /// The outcome of one [`EmbedSpec`], for `summary.json`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EmbedSummary {
@@ -218,32 +207,16 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
     terms.extend(tools::contact_terms(model)?);
     let filaments = filaments::FilamentIndex::new(structures, mesh, terms.len())
         .map_err(BuildError::Filaments)?;
-    let carried = match &model.prestressed_reference {
-        Some(spec) => {
-            let start = std::time::Instant::now();
-            let (knots, farthest) = prestressed_reference::carried_positions(model, spec)?;
-            let positions: Vec<(f64, Vec<[f64; 3]>)> = knots
-                .iter()
-                .map(|k| (k.time, k.positions(&mesh.nodes)))
-                .collect();
-            Some((
-                spec.families.clone(),
-                knots,
-                positions,
-                farthest,
-                start.elapsed().as_secs_f64(),
-            ))
-        }
-        None => None,
-    };
+    let first_pass = model
+        .prestressed_reference
+        .as_ref()
+        .map(|spec| prestressed_reference::first_pass(model, spec))
+        .transpose()?;
     terms.extend(structures::structure_terms_carried(
         mesh,
         structures,
         &dof_map,
-        carried
-            .as_ref()
-            .map(|(families, _, knots, _, _)| structures::CarriedFamilies { families, knots })
-            .as_ref(),
+        first_pass.as_ref().map(|p| p.carried()).as_ref(),
     )?);
     let (ties, tie_summaries) = foundation_ties(model)?;
     terms.extend(ties);
@@ -259,13 +232,10 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
             Ok(step)
         })
         .collect::<Result<_, BuildError>>()?;
-    if let (Some((_, knots, _, _, _)), Some(first)) = (&carried, steps.first_mut()) {
+    if let (Some(pass), Some(first)) = (&first_pass, steps.first_mut()) {
         // Each increment of the first step starts from the first pass's state at its time,
         // in which the carried filaments sit on their moving stress-free geometry.
-        first.guess = Some(cellmech_fem::solve::GuessPath {
-            times: knots.iter().map(|k| k.time).collect(),
-            values: knots.iter().map(|k| k.dof_values(&dof_map)).collect(),
-        });
+        first.guess = Some(pass.guess(&dof_map));
     }
     let curves = model
         .output
@@ -317,13 +287,7 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         embedding,
         hanging_nodes: model.hanging.len(),
         filaments,
-        prestressed_reference: carried.map(|(families, _, _, farthest, wall)| {
-            PrestressedReferenceReport {
-                families,
-                max_carried_um: farthest,
-                wall_time_s: wall,
-            }
-        }),
+        prestressed_reference: first_pass.map(|p| p.report),
     })
 }
 

@@ -40,9 +40,67 @@ pub struct PrestressedReference {
     pub tolerance: f64,
 }
 
+/// What the first pass did, for `summary.json`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PrestressedReferenceReport {
+    /// The families stress-free in the prestressed cell.
+    pub families: Vec<String>,
+    /// Largest distance the first step carries one of their nodes (µm).
+    pub max_carried_um: f64,
+    /// Wall time of the first pass (s).
+    pub wall_time_s: f64,
+}
+
+/// The first pass: its recorded states and the node positions they give.
+pub(super) struct FirstPass {
+    knots: Vec<Knot>,
+    positions: Vec<(f64, Vec<[f64; 3]>)>,
+    pub report: PrestressedReferenceReport,
+}
+
+impl FirstPass {
+    /// The carried families and their moving positions, for the beam sets.
+    pub fn carried(&self) -> super::structures::CarriedFamilies<'_> {
+        super::structures::CarriedFamilies {
+            families: &self.report.families,
+            knots: &self.positions,
+        }
+    }
+
+    /// The recorded states as the first step's guess path, in `dof_map`'s numbering.
+    pub fn guess(&self, dof_map: &cellmech_fem::dof::DofMap) -> cellmech_fem::solve::GuessPath {
+        cellmech_fem::solve::GuessPath {
+            times: self.knots.iter().map(|k| k.time).collect(),
+            values: self.knots.iter().map(|k| k.dof_values(dof_map)).collect(),
+        }
+    }
+}
+
+/// Runs the first pass of `model` for `spec` (module documentation).
+pub(super) fn first_pass(
+    model: &ModelSpec,
+    spec: &PrestressedReference,
+) -> Result<FirstPass, BuildError> {
+    let start = std::time::Instant::now();
+    let (knots, farthest) = carried_positions(model, spec)?;
+    let positions = knots
+        .iter()
+        .map(|k| (k.time, k.positions(&model.mesh.nodes)))
+        .collect();
+    Ok(FirstPass {
+        knots,
+        positions,
+        report: PrestressedReferenceReport {
+            families: spec.families.clone(),
+            max_carried_um: farthest,
+            wall_time_s: start.elapsed().as_secs_f64(),
+        },
+    })
+}
+
 /// The first pass's state at each converged increment of its first step (see [`Knot`]),
 /// and the largest distance a filament node is carried (µm).
-pub(super) fn carried_positions(
+fn carried_positions(
     model: &ModelSpec,
     spec: &PrestressedReference,
 ) -> Result<(Vec<Knot>, f64), BuildError> {
@@ -122,17 +180,17 @@ struct Recorder<'a> {
 }
 
 /// The first pass's state at one converged increment of the first step.
-pub(super) struct Knot {
+struct Knot {
     /// Step time.
-    pub time: f64,
+    time: f64,
     /// Per node, its displacement and rotation (µm, rad): the first pass's values, with the
     /// carried families' nodes moved with their material points and their rotations 0.
-    pub dofs: Vec<[f64; 6]>,
+    dofs: Vec<[f64; 6]>,
 }
 
 impl Knot {
     /// Node positions: the mesh moved by the knot's displacements.
-    pub fn positions(&self, mesh_nodes: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    fn positions(&self, mesh_nodes: &[[f64; 3]]) -> Vec<[f64; 3]> {
         mesh_nodes
             .iter()
             .zip(&self.dofs)
@@ -141,7 +199,7 @@ impl Knot {
     }
 
     /// The values in the order of `dof_map` (components a node does not have are dropped).
-    pub fn dof_values(&self, dof_map: &cellmech_fem::dof::DofMap) -> Vec<f64> {
+    fn dof_values(&self, dof_map: &cellmech_fem::dof::DofMap) -> Vec<f64> {
         let mut u = vec![0.0; dof_map.num_dofs()];
         for (n, d) in self.dofs.iter().enumerate() {
             for (c, &v) in d.iter().enumerate().take(dof_map.count(n)) {

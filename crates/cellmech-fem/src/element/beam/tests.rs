@@ -349,7 +349,6 @@ fn a_beam_whose_reference_morphs_in_a_step_is_stress_free_at_the_target_and_stif
     use crate::dof::DofMap;
     use crate::linsolve::FaerSparseSolver;
     use crate::solve::{Motion, NullObserver, Problem, Step};
-    use crate::term::Term;
     // A bent two-element cantilever along x, clamped at node 0. Its stress-free geometry
     // moves in step 0 to a longer, differently bent one (the target); nothing else loads
     // it, so it must end exactly there, unstressed. In step 1 its tip is pulled along the
