@@ -160,6 +160,7 @@ fn carried_positions(
         num_nodes: mesh.num_nodes(),
         knots: Vec::new(),
         farthest: 0.0,
+        end_viscous_force_ratio: None,
     };
     built
         .problem
@@ -167,6 +168,17 @@ fn carried_positions(
         .map_err(|e| fail(format!("the first step without {:?}: {e}", spec.families)))?;
     if recorder.knots.last().map(|k| k.time) != Some(1.0) {
         return Err(fail("the first step did not reach its end".into()));
+    }
+    if let Some(ratio) = recorder.end_viscous_force_ratio {
+        // The recorded state becomes the filaments' stress-free geometry and the analysis's
+        // starting path: it must be an equilibrium, not a stabilised approximation of one.
+        return Err(fail(format!(
+            "the first step without {:?} ends only with viscous stabilisation (viscous \
+             forces {ratio:.2e} of the force scale, not re-solved in equilibrium): that \
+             model has no prestressed equilibrium to carry the filaments to; use \
+             `stress_free = \"unstressed-cell\"`",
+            spec.families
+        )));
     }
     Ok((recorder.knots, recorder.farthest))
 }
@@ -177,6 +189,9 @@ struct Recorder<'a> {
     num_nodes: usize,
     knots: Vec<Knot>,
     farthest: f64,
+    /// The last increment's viscous force ratio when it was stabilised and not re-solved
+    /// in equilibrium.
+    end_viscous_force_ratio: Option<f64>,
 }
 
 /// The first pass's state at one converged increment of the first step.
@@ -236,5 +251,9 @@ impl cellmech_fem::solve::Observer for Recorder<'_> {
             time: report.step_time,
             dofs: state,
         });
+        self.end_viscous_force_ratio = report
+            .stabilization
+            .filter(|st| !st.equilibrated && st.viscous_force_ratio > 0.0)
+            .map(|st| st.viscous_force_ratio);
     }
 }
