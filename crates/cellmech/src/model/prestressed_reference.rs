@@ -14,15 +14,21 @@
 //!    is carried with the material point it lies in: a continuum node moves with its own
 //!    displacement, any other node with the interpolated displacement of its host hex8.
 //! 2. **Filaments born there.** In the model itself the families' stress-free geometry
-//!    moves from the mesh to those carried positions during the first step, linearly in
-//!    its time (`cellmech_fem::element::beam::ReferenceMorph`), while the prestress ramps
-//!    in. Filaments that follow the gel (embedded, or on a foundation) end the step
-//!    unstressed up to the small difference between the two runs (what they add to the
-//!    gel's contraction); free ones end where their own equilibrium puts them.
+//!    follows the recorded path during the first step, piecewise linear in its time through
+//!    the recorded increments (`cellmech_fem::element::beam::ReferenceMorph`), while the
+//!    prestress ramps in; and every increment of that step starts Newton from the recorded
+//!    state (`cellmech_fem::solve::Step::guess`), in which the filaments sit exactly on
+//!    their moving reference. Measured on the suspended cell: the MTs end the prestress at
+//!    1e-11 nN, free or embedded, in 3 Newton iterations. The first pass must end in a true
+//!    equilibrium (an end held by viscous stabilisation is an error).
 //!
 //! The filaments then carry nothing of the actin prestress (the tensegrity reading, in
-//! which MTs balance part of it, needs them compressed), but they are straight where they
-//! were designed straight and load-bearing from the first µm of a test.
+//! which MTs balance part of it, needs them compressed), but they keep their designed shape
+//! as the gel carries it, and held ones are load-bearing from the first µm of a test.
+//! Why both the moving reference and the starting path are needed: a reference that jumps
+//! ahead of its nodes overloads the corotational beams (6119 nN of imbalance in the first
+//! iteration on the coarse cell), and nodes prescribed along it make the elements at the
+//! FAs columns between held points that buckle at 0.03 nN (`docs/design.md`).
 
 use cellmech_fem::mesh::locate::HostLocator;
 
