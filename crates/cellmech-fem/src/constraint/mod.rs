@@ -268,21 +268,21 @@ impl LinearConstraints {
     /// pass satisfies every constraint).
     pub fn enforce(&self, u: &mut [f64]) {
         for c in 0..self.slaves.len() {
-            let (masters, weights) = self.constraint(c);
-            let v: f64 = masters.iter().zip(weights).map(|(&m, &w)| w * u[m]).sum();
-            u[self.slaves[c]] = v;
+            u[self.slaves[c]] = self.interpolated(c, u);
         }
     }
 
     /// Largest |u_s − Σ w u_m| over the constraints (0 when `u` satisfies them exactly).
     pub fn violation(&self, u: &[f64]) -> f64 {
         (0..self.slaves.len())
-            .map(|c| {
-                let (masters, weights) = self.constraint(c);
-                let v: f64 = masters.iter().zip(weights).map(|(&m, &w)| w * u[m]).sum();
-                (u[self.slaves[c]] - v).abs()
-            })
+            .map(|c| (u[self.slaves[c]] - self.interpolated(c, u)).abs())
             .fold(0.0, f64::max)
+    }
+
+    /// `Σ w u_m` of constraint `c`'s masters.
+    fn interpolated(&self, c: usize, u: &[f64]) -> f64 {
+        let (masters, weights) = self.constraint(c);
+        masters.iter().zip(weights).map(|(&m, &w)| w * u[m]).sum()
     }
 }
 

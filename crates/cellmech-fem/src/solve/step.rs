@@ -59,23 +59,11 @@ impl GuessPath {
     /// Writes the interpolated values at step time `t` into `u` (DOFs where `skip` is true
     /// are left alone).
     pub fn write_at(&self, t: f64, skip: &[bool], u: &mut [f64]) {
-        let Some(last) = self.values.last() else {
+        if self.values.is_empty() {
             return;
-        };
-        let k = self.times.partition_point(|&tk| tk < t);
-        let (a, b, w) = if k == 0 {
-            (&self.values[0], &self.values[0], 0.0)
-        } else if k >= self.times.len() {
-            (last, last, 0.0)
-        } else {
-            let (t0, t1) = (self.times[k - 1], self.times[k]);
-            let w = if t1 > t0 {
-                ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
-            } else {
-                1.0
-            };
-            (&self.values[k - 1], &self.values[k], w)
-        };
+        }
+        let (i0, i1, w) = crate::math::knot_bracket(&self.times, t);
+        let (a, b) = (&self.values[i0], &self.values[i1]);
         for (d, value) in u.iter_mut().enumerate() {
             if !skip[d] {
                 *value = a[d] + w * (b[d] - a[d]);

@@ -33,7 +33,7 @@ pub struct BeamSet {
     /// Whether the set contributes to the problem.
     pub enabled: bool,
     /// A stress-free geometry that moves during one analysis step, if any
-    /// ([`BeamSet::morph_reference_in_step`]).
+    /// ([`BeamSet::morph_reference_through`]).
     pub morph: Option<ReferenceMorph>,
 }
 
@@ -51,9 +51,10 @@ pub struct ReferenceMorph {
     pub step: usize,
     /// Element references on the mesh (t = 0).
     pub start: Vec<BeamReference>,
-    /// Knot times, increasing in (0, 1]; the last is the end of the move.
+    /// Knot times: 0 (the mesh), then increasing in (0, 1]; the last is the end of the
+    /// move.
     pub times: Vec<f64>,
-    /// Per knot and element, the move `Yₖ − X` of nodes a and b (µm).
+    /// Per knot and element, the move `Yₖ − X` of nodes a and b (µm; zero at time 0).
     pub shifts: Vec<Vec<[[f64; 3]; 2]>>,
     /// Step time the references are at now (−1: not yet positioned).
     pub time: f64,
@@ -64,21 +65,8 @@ pub struct ReferenceMorph {
 impl ReferenceMorph {
     /// The move of element `e` at step time `t`, interpolated between the knots.
     fn shift_at(&self, e: usize, t: f64) -> [[f64; 3]; 2] {
-        let k = self.times.partition_point(|&tk| tk < t);
-        let (t0, s0) = if k == 0 {
-            (0.0, [[0.0; 3]; 2])
-        } else {
-            (self.times[k - 1], self.shifts[k - 1][e])
-        };
-        let Some(&t1) = self.times.get(k) else {
-            return self.shifts.last().map(|s| s[e]).unwrap_or([[0.0; 3]; 2]);
-        };
-        let s1 = self.shifts[k][e];
-        let w = if t1 > t0 {
-            ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
-        } else {
-            1.0
-        };
+        let (i0, i1, w) = crate::math::knot_bracket(&self.times, t);
+        let (s0, s1) = (self.shifts[i0][e], self.shifts[i1][e]);
         std::array::from_fn(|n| std::array::from_fn(|i| s0[n][i] + w * (s1[n][i] - s0[n][i])))
     }
 }
@@ -159,16 +147,6 @@ impl BeamSet {
         })
     }
 
-    /// Makes the stress-free geometry move from the mesh to `target` (coordinates of every
-    /// node, µm) during analysis step `step`, linearly in its time: see [`ReferenceMorph`].
-    pub fn morph_reference_in_step(
-        &mut self,
-        step: usize,
-        target: &[[f64; 3]],
-    ) -> Result<(), BeamError> {
-        self.morph_reference_through(step, &[(1.0, target)])
-    }
-
     /// Makes the stress-free geometry move during analysis step `step` through the knots
     /// `(time, coordinates of every node)`, times increasing in (0, 1]: see
     /// [`ReferenceMorph`]. Each element keeps its reference triad's e₂ direction as `up`,
@@ -179,8 +157,8 @@ impl BeamSet {
         knots: &[(f64, &[[f64; 3]])],
     ) -> Result<(), BeamError> {
         let start = self.reference.clone();
-        let mut times = Vec::with_capacity(knots.len());
-        let mut shifts = Vec::with_capacity(knots.len());
+        let mut times = vec![0.0];
+        let mut shifts = vec![vec![[[0.0; 3]; 2]; start.len()]];
         for &(time, target) in knots {
             if !(time > times.last().copied().unwrap_or(0.0) && time <= 1.0) {
                 return Err(BeamError::Morph {

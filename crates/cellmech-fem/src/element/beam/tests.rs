@@ -360,7 +360,7 @@ fn a_beam_whose_reference_morphs_in_a_step_is_stress_free_at_the_target_and_stif
         BeamSet::from_coordinates("mts", "microtubule", &x, &[[0, 1], [1, 2]], None, section)
             .unwrap();
     set.local_strain = LocalStrain::Chord;
-    set.morph_reference_in_step(0, &y).unwrap();
+    set.morph_reference_through(0, &[(1.0, &y[..])]).unwrap();
     let map = DofMap::with_counts(&[6, 6, 6]);
     let mut problem = Problem::new(
         map.clone(),
