@@ -313,9 +313,12 @@ fn bench_analyses_short_mode_reports_the_cost_and_compares_with_a_baseline() {
         (split - plates["wall_s"].as_f64().unwrap()).abs() < 1e-9,
         "{plates}"
     );
-    // The plate-compression example's force at 30 % (tests/tools.rs checks it against FEBio).
+    // The plate-compression example's force at 30 % (tests/tools.rs checks it against FEBio):
+    // 52.40 nN with a 10x tighter contact tolerance; the default tolerance's band (active
+    // points may hold up to penalty x tolerance of tension) moves it by up to 0.07 nN
+    // (docs/performance.md, "Extrapolated starts").
     assert!(
-        (plates["result"].as_f64().unwrap() - 52.40).abs() < 0.05,
+        (plates["result"].as_f64().unwrap() - 52.40).abs() < 0.1,
         "{plates}"
     );
     let o = cellmech(&[

@@ -70,6 +70,12 @@ pub trait Term: Send + Sync {
     /// tool's motion) can position themselves.
     fn set_load_state(&mut self, _state: &LoadState) {}
 
+    /// Called before every attempt at an increment, after [`Term::set_load_state`], with
+    /// the state Newton starts from (the last converged state, or a prediction of the
+    /// increment's end: an extrapolation or a guess path), so that a term with a status
+    /// (e.g. a contact's active set) can predict it from where the body is heading.
+    fn predict(&mut self, _u: &[f64], _dof_map: &DofMap) {}
+
     /// Called when Newton has converged. A term with an inner loop (augmented-Lagrangian
     /// multipliers, an active set) updates itself and says whether it is settled; if any term
     /// is not, Newton continues from the current state.

@@ -411,7 +411,7 @@ fn contact_frictionless_active_and_bonded() {
     let map = DofMap::translational(3);
     for shape in shapes {
         // The consistent tangent (the default lags the curvature term's pressure to the last
-        // equilibrium's). Committed at u, the status predictor activates every node.
+        // equilibrium's). Predicted from u, the status predictor activates every node.
         let mut c = tool(shape, ContactKind::Frictionless, &x)
             .with_curvature_tangent(CurvatureTangent::Consistent);
         c.commit(&u, &map);
@@ -419,6 +419,7 @@ fn contact_frictionless_active_and_bonded() {
             step_index: 0,
             step_time: 0.5,
         });
+        c.predict(&u, &map);
         let mut r = [0.0; 3];
         for e in 0..3 {
             c.evaluate(e, &u[3 * e..3 * e + 3], &mut r, None).unwrap();
@@ -482,6 +483,7 @@ fn contact_on_faces_frictionless() {
                 step_index: 0,
                 step_time: 0.5,
             });
+            c.predict(&u, &map);
             let what = format!("frictionless faces ({per_side}²) {shape:?}");
             let mut r = [0.0; 12];
             let u_face_1: Vec<f64> = faces[1]

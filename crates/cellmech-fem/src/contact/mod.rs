@@ -111,7 +111,7 @@ pub struct RigidContact {
     /// A trial state kept within an increment ([`Term::save_trial`]).
     saved_trial: Option<ContactState>,
     /// Positions of the contact points at the last committed increment (the reference ones
-    /// before the first): where the status predictor looks for points the tool will reach.
+    /// before the first): what [`RigidContact::min_gap`] measures against.
     committed_positions: Vec<[f64; 3]>,
     curvature_tangent: CurvatureTangent,
     last_step: usize,
@@ -510,20 +510,20 @@ impl RigidContact {
         changed
     }
 
-    /// Status predictor for the increment about to be attempted: free nodes that the tool,
-    /// at its new position, reaches deeper than the tolerance where they were at the last
-    /// committed increment enter the active set now, so that Newton's first correction moves
-    /// the whole contact patch with the tool instead of pushing the old patch alone (an
-    /// apex node driven one element size into the mesh inverts its elements).
-    fn predict_active_set(&mut self) {
+    /// Status predictor for the increment about to be attempted: free points that the tool,
+    /// at its new position, reaches deeper than the tolerance where Newton starts from (`u`:
+    /// the last converged state, or the solver's prediction of the increment's end) enter
+    /// the active set now, so that Newton's first correction moves the whole contact patch
+    /// with the tool instead of pushing the old patch alone (an apex node driven one element
+    /// size into the mesh inverts its elements), and points the body is predicted to carry
+    /// onto a tool at rest need no extra contact-status round.
+    fn predict_active_set(&mut self, u: &[f64], dof_map: &DofMap) {
         for e in 0..self.point_count() {
             if self.trial.active[e] || self.trial.anchors[e].is_some() {
                 continue;
             }
-            if let Some(g) = self
-                .shape
-                .gap(&self.committed_positions[e], &self.trial.offset)
-            {
+            let x = self.position(e, u, dof_map);
+            if let Some(g) = self.shape.gap(&x, &self.trial.offset) {
                 if g.value < -self.tolerance {
                     self.trial.active[e] = true;
                 }
@@ -703,7 +703,10 @@ impl ElementSet for RigidContact {
         self.trial.offset =
             std::array::from_fn(|i| from[i] + state.step_time * (end[i] - start[i]));
         self.last_step = state.step_index;
-        self.predict_active_set();
+    }
+
+    fn on_predict(&mut self, u: &[f64], dof_map: &DofMap) {
+        self.predict_active_set(u, dof_map);
     }
 
     fn on_converged(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {

@@ -185,6 +185,7 @@ fn face_contact_spreads_a_uniform_pressure_by_area() {
         });
         let u = vec![0.0; 21];
         let map = DofMap::translational(7);
+        c.predict(&u, &map);
         // The mean face area is (0.5 + 2) / 2 = 1.25: the faces take 0.4 and 1.6 ε δ.
         let f = c.force_on_body(&u, &map);
         assert!(
@@ -267,4 +268,80 @@ fn a_restored_trial_state_is_the_saved_one_after_an_augmentation_changed_it() {
     );
     contact.restore_trial();
     assert_eq!(contact.trial, saved);
+}
+
+/// A node carried onto a plate at rest: with an extrapolated start the solver predicts it
+/// in contact at the increment it arrives (`Term::predict`), so that increment needs no
+/// contact-status round; the end state is the same.
+#[test]
+fn a_node_heading_onto_a_plate_at_rest_is_predicted_in_contact() {
+    let run = |extrapolation: crate::solve::Extrapolation| {
+        // Node 1 hangs on a spring (k = 2 nN/um) from node 0, 1 um above it; the plate is
+        // 0.55 um below node 1 and stays there while node 0 is lowered by 1 um.
+        let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
+        let springs = SpringSet {
+            name: "spring".into(),
+            nodes: vec![[0, 1]],
+            reference: vec![[nodes[0], nodes[1]]],
+            stiffness: vec![2.0],
+            rest_length: vec![1.0],
+        };
+        let plate = ToolShape::Plate {
+            point: [0.0, 0.0, 0.45],
+            normal: [0.0, 0.0, 1.0],
+        };
+        let contact = RigidContact::new(
+            "plate",
+            plate,
+            ContactKind::Frictionless,
+            vec![1],
+            vec![nodes[1]],
+            1e4,
+            1e-3,
+            vec![[0.0; 3]],
+        )
+        .unwrap();
+        let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
+        let mut p = Problem::new(
+            DofMap::translational(2),
+            terms,
+            Box::new(DenseSolver::default()),
+        )
+        .unwrap();
+        // The model's size: a correction below 1e-13 of it is round-off (an exact start
+        // leaves nothing else to correct).
+        p.set_length_scale(2.0);
+        let mut step = Step::new("lower");
+        step.prescribed = vec![
+            (0, Motion::Hold),
+            (1, Motion::Hold),
+            (2, Motion::By(-1.0)),
+            (3, Motion::Hold),
+            (4, Motion::Hold),
+        ];
+        step.control.initial_increment = 0.1;
+        step.control.max_increment = 0.1;
+        step.control.extrapolation = extrapolation;
+        let mut iterations = 0;
+        struct Count<'a>(&'a mut usize);
+        impl crate::solve::Observer for Count<'_> {
+            fn on_iteration(&mut self, _r: &crate::solve::IterationReport) {
+                *self.0 += 1;
+            }
+        }
+        p.run_step(&step, &mut Count(&mut iterations)).unwrap();
+        let force = value(&contact_term(&p), "plate_force_z_nN");
+        (p.u()[5], force, iterations)
+    };
+    let (z_plain, f_plain, plain) = run(crate::solve::Extrapolation::None);
+    let (z, f, predicted) = run(crate::solve::Extrapolation::Linear);
+    // Node 1 rests on the plate (within the penalty's 0.9/1e4 um); the spring is shortened
+    // by 0.45 um: 0.9 nN.
+    assert!((z + 0.55).abs() < 1e-4, "node 1 moved {z}");
+    assert!((f - 0.9).abs() < 1e-3, "force {f}");
+    assert!((z - z_plain).abs() < 1e-9 && (f - f_plain).abs() < 1e-6);
+    assert!(
+        predicted < plain,
+        "{predicted} iterations predicted, {plain} without"
+    );
 }

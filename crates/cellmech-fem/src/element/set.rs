@@ -103,6 +103,9 @@ pub trait ElementSet: Send + Sync {
     /// The increment about to be attempted ([`Term::set_load_state`]).
     fn on_load_state(&mut self, _state: &LoadState) {}
 
+    /// The state Newton starts the increment from ([`Term::predict`]).
+    fn on_predict(&mut self, _u: &[f64], _dof_map: &DofMap) {}
+
     /// Newton converged: inner-loop update ([`Term::augment`]).
     fn on_converged(&mut self, _u: &[f64], _dof_map: &DofMap) -> Augmentation {
         Augmentation::Settled
@@ -165,6 +168,10 @@ impl<S: ElementSet> Term for S {
 
     fn set_load_state(&mut self, state: &LoadState) {
         self.on_load_state(state)
+    }
+
+    fn predict(&mut self, u: &[f64], dof_map: &DofMap) {
+        self.on_predict(u, dof_map)
     }
 
     fn augment(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {

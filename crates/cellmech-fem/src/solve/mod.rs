@@ -16,7 +16,8 @@ mod stabilize;
 mod step;
 
 pub use control::{
-    Activation, Convergence, IterationMethod, Stabilization, StepControl, ON_DIFFICULTY_FAILURES,
+    Activation, Convergence, Extrapolation, IterationMethod, Stabilization, StepControl,
+    ON_DIFFICULTY_FAILURES,
 };
 pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;

@@ -1,6 +1,6 @@
 //! The problem: terms, DOFs, assembler, linear solver and state, and the step driver.
 
-use super::control::StepControl;
+use super::control::{Extrapolation, StepControl};
 use super::error::SolveError;
 use super::observer::{IncrementReport, Observer};
 use super::stabilize::{StabilizationReport, Stabilizer};
@@ -300,6 +300,9 @@ impl Problem {
         let mut increments = 0;
         let mut target_u = vec![0.0; n];
         let mut target_f = vec![0.0; n];
+        // The step's last converged increment of displacement and its size, for the
+        // extrapolated start of the next.
+        let mut last_increment: Option<(Vec<f64>, f64)> = None;
         // Stop condition: g = monitor - target at the last committed state, and a trial time
         // known to lie beyond the crossing.
         let gap = |p: &Problem| {
@@ -357,12 +360,35 @@ impl Problem {
             if let Some(st) = &mut self.stabilizer {
                 st.start_increment(&saved_u, t - time);
             }
-            if let Some(guess) = &step.guess {
+            let guessed = if let Some(guess) = &step.guess {
                 guess.write_at(t, &self.prescribed, &mut self.u);
+                true
+            } else if let (Extrapolation::Linear, Some((du, dt_last))) =
+                (control.extrapolation, &last_increment)
+            {
+                // Prescribed DOFs go to their targets with the rest (the predictor then
+                // has nothing left to move): a state whose free and prescribed parts were
+                // moved apart would strain the elements between them.
+                let ratio = dt / dt_last;
+                for d in 0..n {
+                    self.u[d] = if self.prescribed[d] {
+                        target_u[d]
+                    } else {
+                        self.u[d] + ratio * du[d]
+                    };
+                }
+                true
+            } else {
+                false
+            };
+            if guessed {
                 if let Some(c) = &self.condensation {
-                    // Tied DOFs follow their masters exactly, whatever the path says.
+                    // Tied DOFs follow their masters exactly, whatever the guess says.
                     c.constraints().enforce(&mut self.u);
                 }
+            }
+            for term in &mut self.terms {
+                term.predict(&self.u, &self.dof_map);
             }
             let outcome = self.newton_increment(&target_u, &target_f, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
@@ -417,6 +443,14 @@ impl Problem {
                     }
                     for term in &mut self.terms {
                         term.commit(&self.u, &self.dof_map);
+                    }
+                    if control.extrapolation == Extrapolation::Linear {
+                        let (du, dt_last) =
+                            last_increment.get_or_insert_with(|| (vec![0.0; n], 0.0));
+                        for d in 0..n {
+                            du[d] = self.u[d] - saved_u[d];
+                        }
+                        *dt_last = t - time;
                     }
                     time = t;
                     increments += 1;

@@ -412,3 +412,80 @@ fn a_guess_path_changes_where_newton_starts_not_where_it_ends() {
         .to_string();
     assert!(msg.contains("guess path"), "{msg}");
 }
+
+/// On a linear path an extrapolated start is the exact solution from a step's second
+/// increment on, also when the increments grow (the extrapolation is scaled by their
+/// ratio); without it Newton's first correction is the whole increment. Both end in the
+/// same equilibrium.
+#[test]
+fn an_extrapolated_start_is_exact_on_a_linear_path_and_changes_no_result() {
+    let run = |extrapolation: Extrapolation| {
+        let mut p = problem(&CHAIN, &[[0, 1], [1, 2], [2, 3]], 2.0);
+        let mut step = pull_end_step("pull");
+        step.control.initial_increment = 0.1;
+        step.control.max_increment = 0.4;
+        step.control.extrapolation = extrapolation;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        (p.u().to_vec(), rec)
+    };
+    let (plain, plain_rec) = run(Extrapolation::None);
+    let (extrapolated, rec) = run(Extrapolation::Linear);
+    for (a, b) in plain.iter().zip(&extrapolated) {
+        assert!((a - b).abs() <= 1e-12, "{a} vs {b}");
+    }
+    // Increments of 0.1, 0.15, 0.225, ...: the sizes change.
+    let times: Vec<f64> = rec.increments.iter().map(|&(t, _)| t).collect();
+    assert!(
+        times.len() >= 4 && (times[1] - times[0] - 0.15).abs() < 1e-12,
+        "{times:?}"
+    );
+    let first_corrections = |rec: &Recorder| -> Vec<f64> {
+        rec.iterations
+            .iter()
+            .filter(|r| r.iteration == 0)
+            .map(|r| r.correction_norm)
+            .collect()
+    };
+    let with = first_corrections(&rec);
+    let without = first_corrections(&plain_rec);
+    assert!(with[1..].iter().all(|&c| c < 1e-12), "{with:?}");
+    assert!(without[1..].iter().all(|&c| c > 0.01), "{without:?}");
+}
+
+/// On a smooth nonlinear path (a pulled spring swung round by a growing lateral load)
+/// the extrapolated start reaches the same equilibrium in fewer iterations.
+#[test]
+fn an_extrapolated_start_saves_iterations_on_a_smooth_nonlinear_path() {
+    let run = |extrapolation: Extrapolation| {
+        let (mut p, mut step) = large_rotation_spring();
+        // First the axial load alone (4 nN along the spring), then the lateral one grows to
+        // 6 nN: the spring turns by atan(6/4) = 56 degrees while it stretches.
+        step.loads = vec![NodalLoad { dof: 3, value: 4.0 }];
+        p.run_step(&step, &mut Recorder::default()).unwrap();
+        let mut swing = step.clone();
+        swing.name = "swing".into();
+        swing.loads = vec![NodalLoad { dof: 4, value: 6.0 }];
+        swing.control.initial_increment = 0.1;
+        swing.control.max_increment = 0.1;
+        swing.control.extrapolation = extrapolation;
+        let mut rec = Recorder::default();
+        p.run_step(&swing, &mut rec).unwrap();
+        (p.u().to_vec(), rec.iterations.len())
+    };
+    let (plain, plain_iterations) = run(Extrapolation::None);
+    let (extrapolated, iterations) = run(Extrapolation::Linear);
+    // Equilibrium: the spring along the load (4, 6), N = |F| = k (l - 0.8).
+    let f = (4.0f64 * 4.0 + 6.0 * 6.0).sqrt();
+    let l = 0.8 + f / 10.0;
+    let (x, y) = (1.0 + extrapolated[3], extrapolated[4]);
+    assert!(
+        (x - l * 4.0 / f).abs() < 1e-9 && (y - l * 6.0 / f).abs() < 1e-9,
+        "x {x} y {y}"
+    );
+    assert!((plain[3] - extrapolated[3]).abs() < 1e-9 && (plain[4] - extrapolated[4]).abs() < 1e-9);
+    assert!(
+        iterations < plain_iterations,
+        "{iterations} iterations extrapolated, {plain_iterations} without"
+    );
+}

@@ -141,6 +141,9 @@ pub struct StepSection {
     pub residual_tolerance: Option<f64>,
     /// Relative energy tolerance (default 1e-12).
     pub energy_tolerance: Option<f64>,
+    /// Where Newton starts each increment after the step's first: `"linear"` (default:
+    /// the last increment's displacement extrapolated) or `"none"` (the converged state).
+    pub extrapolation: Option<Spanned<String>>,
     /// Viscous stabilisation: `"off"` (default), `"on-difficulty"` or `"always"`.
     pub stabilization: Option<Spanned<String>>,
     /// Fraction of the first increment's strain energy the calibrated viscosity dissipates

@@ -6,7 +6,7 @@ use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::NeoHookean;
 use cellmech_fem::mesh::generate::{box_mesh, sphere_mesh, SphereMeshSpec};
 use cellmech_fem::mesh::{ElementKind, Mesh};
-use cellmech_fem::solve::{Activation, Convergence, Stabilization, StepControl};
+use cellmech_fem::solve::{Activation, Convergence, Extrapolation, Stabilization, StepControl};
 use toml::Spanned;
 
 use super::context::Ctx;
@@ -522,6 +522,22 @@ fn resolve_step(
     }
     let mut control = control;
     control.stabilization = stabilization(ctx, s, &key)?;
+    control.extrapolation = match &s.extrapolation {
+        // A continuum with contact takes a third fewer iterations from an extrapolated
+        // start (docs/performance.md, "Extrapolated starts").
+        None => Extrapolation::Linear,
+        Some(word) => match word.get_ref().as_str() {
+            "linear" => Extrapolation::Linear,
+            "none" => Extrapolation::None,
+            other => {
+                return Err(ctx.invalid(
+                    Some(word.span()),
+                    &key("extrapolation"),
+                    format!("expected \"linear\" or \"none\"; found \"{other}\""),
+                ))
+            }
+        },
+    };
     let c = &control;
     let tol = &c.convergence;
     if !(tol.residual_tolerance > 0.0
