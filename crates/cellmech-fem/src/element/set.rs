@@ -15,8 +15,9 @@
 //! * Hooks with state (a tool's load program, augmented-Lagrangian updates, commit and
 //!   rollback of history, prestrain ramps) and per-element outputs are default methods that
 //!   the blanket `Term` implementation forwards ([`ElementSet::on_load_state`],
-//!   [`ElementSet::on_converged`], [`ElementSet::on_commit`], [`ElementSet::on_rollback`],
-//!   [`ElementSet::cell_outputs`], [`ElementSet::curve_outputs`]).
+//!   [`ElementSet::on_predict`], [`ElementSet::on_converged`], [`ElementSet::on_commit`],
+//!   [`ElementSet::on_rollback`], [`ElementSet::cell_outputs`],
+//!   [`ElementSet::curve_outputs`]).
 //!
 //! The set types keep their own public constructors and fields; the methods here have
 //! names distinct from [`Term`]'s so that both traits can be in scope.
