@@ -93,9 +93,10 @@ pub enum Extrapolation {
     None,
     /// From the last converged state plus the step's previous increment of displacement,
     /// scaled by the ratio of the increment sizes, with the prescribed DOFs at their
-    /// targets (the first increment of a step starts from the converged state). A path
-    /// that continues as it went needs fewer iterations, and contact points the body is
-    /// heading onto are predicted active ([`crate::term::Term::predict`]).
+    /// targets (the first increment of a step starts from the converged state, and so does
+    /// every retry after a failed attempt, until an increment converges). A path that
+    /// continues as it went needs fewer iterations, and contact points the body is heading
+    /// onto are predicted active ([`crate::term::Term::predict`]).
     Linear,
 }
 

@@ -303,6 +303,9 @@ impl Problem {
         // The step's last converged increment of displacement and its size, for the
         // extrapolated start of the next.
         let mut last_increment: Option<(Vec<f64>, f64)> = None;
+        // A failed attempt is retried from the converged state: the extrapolation may be
+        // what made it fail. The next converged increment extrapolates again.
+        let mut extrapolate = true;
         // Stop condition: g = monitor - target at the last committed state, and a trial time
         // known to lie beyond the crossing.
         let gap = |p: &Problem| {
@@ -363,8 +366,8 @@ impl Problem {
             let guessed = if let Some(guess) = &step.guess {
                 guess.write_at(t, &self.prescribed, &mut self.u);
                 true
-            } else if let (Extrapolation::Linear, Some((du, dt_last))) =
-                (control.extrapolation, &last_increment)
+            } else if let (Extrapolation::Linear, true, Some((du, dt_last))) =
+                (control.extrapolation, extrapolate, &last_increment)
             {
                 // Prescribed DOFs go to their targets with the rest (the predictor then
                 // has nothing left to move): a state whose free and prescribed parts were
@@ -444,6 +447,7 @@ impl Problem {
                     for term in &mut self.terms {
                         term.commit(&self.u, &self.dof_map);
                     }
+                    extrapolate = true;
                     if control.extrapolation == Extrapolation::Linear {
                         let (du, dt_last) =
                             last_increment.get_or_insert_with(|| (vec![0.0; n], 0.0));
@@ -497,6 +501,7 @@ impl Problem {
                     self.u = saved_u;
                     self.f_ext = saved_f;
                     observer.on_cutback(time, dt, &reason);
+                    extrapolate = false;
                     dt *= control.cutback;
                     if let Some(st) = &mut self.stabilizer {
                         st.boost();
