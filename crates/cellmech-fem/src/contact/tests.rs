@@ -8,6 +8,18 @@ use crate::term::Term;
 
 /// Node 1 hangs on a spring (k = 2 nN/um) from the fixed node 0 above it, 1 um apart.
 fn spring_and_tool(kind: ContactKind, program: Vec<[f64; 3]>) -> Problem {
+    // A plate below node 1, touching it.
+    spring_over_plate(kind, 1.0, (50.0, 1e-9), program)
+}
+
+/// Node 1 hangs on a spring (k = 2 nN/um) from node 0 at (0, 0, 2), 1 um above it; a plate
+/// at height `plate_z`, normal +z (towards the body), with `(penalty, tolerance)`.
+fn spring_over_plate(
+    kind: ContactKind,
+    plate_z: f64,
+    (penalty, tolerance): (f64, f64),
+    program: Vec<[f64; 3]>,
+) -> Problem {
     let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
     let springs = SpringSet {
         name: "spring".into(),
@@ -16,9 +28,8 @@ fn spring_and_tool(kind: ContactKind, program: Vec<[f64; 3]>) -> Problem {
         stiffness: vec![2.0],
         rest_length: vec![1.0],
     };
-    // A plate below node 1, touching it, normal +z (towards the body).
     let plate = ToolShape::Plate {
-        point: [0.0, 0.0, 1.0],
+        point: [0.0, 0.0, plate_z],
         normal: [0.0, 0.0, 1.0],
     };
     let contact = RigidContact::new(
@@ -27,8 +38,8 @@ fn spring_and_tool(kind: ContactKind, program: Vec<[f64; 3]>) -> Problem {
         kind,
         vec![1],
         vec![nodes[1]],
-        50.0,
-        1e-9,
+        penalty,
+        tolerance,
         program,
     )
     .unwrap();
@@ -276,38 +287,9 @@ fn a_restored_trial_state_is_the_saved_one_after_an_augmentation_changed_it() {
 #[test]
 fn a_node_heading_onto_a_plate_at_rest_is_predicted_in_contact() {
     let run = |extrapolation: crate::solve::Extrapolation| {
-        // Node 1 hangs on a spring (k = 2 nN/um) from node 0, 1 um above it; the plate is
-        // 0.55 um below node 1 and stays there while node 0 is lowered by 1 um.
-        let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
-        let springs = SpringSet {
-            name: "spring".into(),
-            nodes: vec![[0, 1]],
-            reference: vec![[nodes[0], nodes[1]]],
-            stiffness: vec![2.0],
-            rest_length: vec![1.0],
-        };
-        let plate = ToolShape::Plate {
-            point: [0.0, 0.0, 0.45],
-            normal: [0.0, 0.0, 1.0],
-        };
-        let contact = RigidContact::new(
-            "plate",
-            plate,
-            ContactKind::Frictionless,
-            vec![1],
-            vec![nodes[1]],
-            1e4,
-            1e-3,
-            vec![[0.0; 3]],
-        )
-        .unwrap();
-        let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
-        let mut p = Problem::new(
-            DofMap::translational(2),
-            terms,
-            Box::new(DenseSolver::default()),
-        )
-        .unwrap();
+        // The plate is 0.55 um below node 1 and stays there while node 0 is lowered by
+        // 1 um.
+        let mut p = spring_over_plate(ContactKind::Frictionless, 0.45, (1e4, 1e-3), vec![[0.0; 3]]);
         // The model's size: a correction below 1e-13 of it is round-off (an exact start
         // leaves nothing else to correct).
         p.set_length_scale(2.0);
