@@ -72,10 +72,9 @@ pub trait Term: Send + Sync {
 
     /// Called before every attempt at an increment, after [`Term::set_load_state`], with
     /// the state Newton starts from (the last converged state, or a prediction of the
-    /// increment's end: an extrapolation or a guess path) and how it was obtained, so that
-    /// a term with a status or inner variables (a contact's active set and multipliers)
-    /// can predict them from where the body is heading.
-    fn predict(&mut self, _u: &[f64], _dof_map: &DofMap, _start: Start) {}
+    /// increment's end: an extrapolation or a guess path), so that a term with a status
+    /// (e.g. a contact's active set) can predict it from where the body is heading.
+    fn predict(&mut self, _u: &[f64], _dof_map: &DofMap) {}
 
     /// Called when Newton has converged. A term with an inner loop (augmented-Lagrangian
     /// multipliers, an active set) updates itself and says whether it is settled; if any term
@@ -106,20 +105,6 @@ pub struct LoadState {
     pub step_index: usize,
     /// Step time the current increment is heading for (0..1).
     pub step_time: f64,
-}
-
-/// How the state Newton starts an increment from was obtained ([`Term::predict`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Start {
-    /// The last converged state, or a guess path's state.
-    Converged,
-    /// The last converged state plus `ratio` times the step's previous increment (the
-    /// ratio of this increment's size to the previous one's): a term may extrapolate its
-    /// own inner variables alike.
-    Extrapolated {
-        /// This increment's size over the previous one's.
-        ratio: f64,
-    },
 }
 
 /// Result of [`Term::augment`].

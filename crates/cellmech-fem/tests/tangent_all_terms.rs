@@ -419,7 +419,7 @@ fn contact_frictionless_active_and_bonded() {
             step_index: 0,
             step_time: 0.5,
         });
-        c.predict(&u, &map, cellmech_fem::term::Start::Converged);
+        c.predict(&u, &map);
         let mut r = [0.0; 3];
         for e in 0..3 {
             c.evaluate(e, &u[3 * e..3 * e + 3], &mut r, None).unwrap();
@@ -483,7 +483,7 @@ fn contact_on_faces_frictionless() {
                 step_index: 0,
                 step_time: 0.5,
             });
-            c.predict(&u, &map, cellmech_fem::term::Start::Converged);
+            c.predict(&u, &map);
             let what = format!("frictionless faces ({per_side}²) {shape:?}");
             let mut r = [0.0; 12];
             let u_face_1: Vec<f64> = faces[1]

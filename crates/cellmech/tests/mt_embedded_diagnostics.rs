@@ -172,7 +172,7 @@ fn embedded_prestress_newton_diagnostics() {
                 step_index: 0,
                 step_time: t,
             });
-            term.predict(&u, &dof_map, cellmech_fem::term::Start::Converged);
+            term.predict(&u, &dof_map);
         }
         let mut converged = false;
         for it in 0..30 {

@@ -46,7 +46,7 @@ pub use tool::{Gap, ToolShape};
 use crate::dof::DofMap;
 use crate::element::{ElementSet, KernelError};
 use crate::math::vec3::{dot, norm};
-use crate::term::{Augmentation, LoadState, Start};
+use crate::term::{Augmentation, LoadState};
 
 /// How the tool holds the nodes it touches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -108,9 +108,6 @@ pub struct RigidContact {
     program: Vec<[f64; 3]>,
     trial: ContactState,
     committed: ContactState,
-    /// The committed state before the last commit: with `committed`, the last increment's
-    /// change of the multipliers, which an extrapolated start extrapolates.
-    before_commit: Option<ContactState>,
     /// A trial state kept within an increment ([`Term::save_trial`]).
     saved_trial: Option<ContactState>,
     /// Positions of the contact points at the last committed increment (the reference ones
@@ -319,7 +316,6 @@ impl RigidContact {
             program,
             trial: state.clone(),
             committed: state,
-            before_commit: None,
             saved_trial: None,
             last_step: 0,
             started_step: None,
@@ -535,31 +531,6 @@ impl RigidContact {
         }
     }
 
-    /// Extrapolates the multipliers of the points that carried load at the last two commits
-    /// (bonded at both, or active at both) by `ratio` times their last change, as the
-    /// solver extrapolated the displacements: a bonded patch whose force grows steadily
-    /// then starts each increment with about the force it will carry, instead of last
-    /// increment's, whose shortfall opened bond gaps beyond the tolerance and cost one
-    /// more augmentation round. Only the start of the Uzawa iterations moves; where they
-    /// settle does not.
-    fn extrapolate_multipliers(&mut self, ratio: f64) {
-        let Some(before) = &self.before_commit else {
-            return;
-        };
-        let now = &self.committed;
-        for q in 0..self.point_count() {
-            if now.anchors[q].is_some() && before.anchors[q] == now.anchors[q] {
-                self.trial.bond_lambda[q] = std::array::from_fn(|i| {
-                    now.bond_lambda[q][i]
-                        + ratio * (now.bond_lambda[q][i] - before.bond_lambda[q][i])
-                });
-            } else if now.anchors[q].is_none() && now.active[q] && before.active[q] {
-                self.trial.lambda[q] =
-                    (now.lambda[q] + ratio * (now.lambda[q] - before.lambda[q])).max(0.0);
-            }
-        }
-    }
-
     /// Total force the tool exerts on the body (nN).
     pub fn force_on_body(&self, u: &[f64], dof_map: &DofMap) -> [f64; 3] {
         let mut total = [0.0; 3];
@@ -734,10 +705,7 @@ impl ElementSet for RigidContact {
         self.last_step = state.step_index;
     }
 
-    fn on_predict(&mut self, u: &[f64], dof_map: &DofMap, start: Start) {
-        if let Start::Extrapolated { ratio } = start {
-            self.extrapolate_multipliers(ratio);
-        }
+    fn on_predict(&mut self, u: &[f64], dof_map: &DofMap) {
         self.predict_active_set(u, dof_map);
     }
 
@@ -803,7 +771,7 @@ impl ElementSet for RigidContact {
                 }
             }
         }
-        self.before_commit = Some(std::mem::replace(&mut self.committed, self.trial.clone()));
+        self.committed = self.trial.clone();
     }
 
     fn on_rollback(&mut self) {

@@ -24,7 +24,7 @@
 
 use crate::dof::DofMap;
 use crate::element::KernelError;
-use crate::term::{Augmentation, LoadState, Start, Term, TermOutput, MAX_ELEMENT_DOFS};
+use crate::term::{Augmentation, LoadState, Term, TermOutput, MAX_ELEMENT_DOFS};
 
 /// A family of elements sharing one kernel; every implementor is a [`Term`].
 pub trait ElementSet: Send + Sync {
@@ -105,7 +105,7 @@ pub trait ElementSet: Send + Sync {
     fn on_load_state(&mut self, _state: &LoadState) {}
 
     /// The state Newton starts the increment from ([`Term::predict`]).
-    fn on_predict(&mut self, _u: &[f64], _dof_map: &DofMap, _start: Start) {}
+    fn on_predict(&mut self, _u: &[f64], _dof_map: &DofMap) {}
 
     /// Newton converged: inner-loop update ([`Term::augment`]).
     fn on_converged(&mut self, _u: &[f64], _dof_map: &DofMap) -> Augmentation {
@@ -171,8 +171,8 @@ impl<S: ElementSet> Term for S {
         self.on_load_state(state)
     }
 
-    fn predict(&mut self, u: &[f64], dof_map: &DofMap, start: Start) {
-        self.on_predict(u, dof_map, start)
+    fn predict(&mut self, u: &[f64], dof_map: &DofMap) {
+        self.on_predict(u, dof_map)
     }
 
     fn augment(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {

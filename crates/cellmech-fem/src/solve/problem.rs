@@ -10,7 +10,7 @@ use crate::constraint::condense::Condensation;
 use crate::constraint::LinearConstraints;
 use crate::dof::DofMap;
 use crate::linsolve::{FactorInfo, LinearSolver};
-use crate::term::{LoadState, Start, Term};
+use crate::term::{LoadState, Term};
 
 /// Buffers reused by every Newton iteration (allocated once per problem).
 #[derive(Debug, Clone)]
@@ -363,9 +363,9 @@ impl Problem {
             if let Some(st) = &mut self.stabilizer {
                 st.start_increment(&saved_u, t - time);
             }
-            let start = if let Some(guess) = &step.guess {
+            let guessed = if let Some(guess) = &step.guess {
                 guess.write_at(t, &self.prescribed, &mut self.u);
-                Some(Start::Converged)
+                true
             } else if let (Extrapolation::Linear, true, Some((du, dt_last))) =
                 (control.extrapolation, extrapolate, &last_increment)
             {
@@ -380,18 +380,18 @@ impl Problem {
                         self.u[d] + ratio * du[d]
                     };
                 }
-                Some(Start::Extrapolated { ratio })
+                true
             } else {
-                None
+                false
             };
-            if start.is_some() {
+            if guessed {
                 if let Some(c) = &self.condensation {
                     // Tied DOFs follow their masters exactly, whatever the guess says.
                     c.constraints().enforce(&mut self.u);
                 }
             }
             for term in &mut self.terms {
-                term.predict(&self.u, &self.dof_map, start.unwrap_or(Start::Converged));
+                term.predict(&self.u, &self.dof_map);
             }
             let outcome = self.newton_increment(&target_u, &target_f, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
