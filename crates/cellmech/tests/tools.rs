@@ -233,3 +233,23 @@ fn bad_tool_input_names_the_file_line_and_key() {
         "{message}"
     );
 }
+
+#[test]
+fn step_extrapolation_defaults_to_linear_and_a_misspelling_names_the_line_and_key() {
+    use cellmech_fem::solve::Extrapolation;
+    let s = parse(BASE, "base.toml", Path::new(".")).unwrap();
+    assert_eq!(
+        s.model.steps[0].control.extrapolation,
+        Extrapolation::Linear
+    );
+    let none = BASE.replace("[[step]]\n", "[[step]]\nextrapolation = \"none\"\n");
+    let s = parse(&none, "none.toml", Path::new(".")).unwrap();
+    assert_eq!(s.model.steps[0].control.extrapolation, Extrapolation::None);
+    let e = error_of(&BASE.replace("[[step]]\n", "[[step]]\nextrapolation = \"quadratic\"\n"));
+    assert!(
+        e.contains("bad.toml:20: `step[0].extrapolation`")
+            && e.contains("\"linear\" or \"none\"")
+            && e.contains("quadratic"),
+        "{e}"
+    );
+}
