@@ -27,6 +27,14 @@ fn mt() -> BeamSection {
     BeamSection::hollow_circular(1.2e6, 0.3, 0.025, 0.017).unwrap()
 }
 
+/// Two microtubule beams through the three points `x`, with the chord-strain local law.
+fn two_element_microtubule(x: &[[f64; 3]; 3]) -> BeamSet {
+    let mut set =
+        BeamSet::from_coordinates("mts", "microtubule", x, &[[0, 1], [1, 2]], None, mt()).unwrap();
+    set.local_strain = LocalStrain::Chord;
+    set
+}
+
 /// A section with distinct stiffnesses so that a mixed-up index shows.
 fn test_section() -> BeamSection {
     BeamSection::new(100.0, 40.0, 0.3, 0.02, 0.05, 0.03).unwrap()
@@ -311,10 +319,7 @@ fn beam_set_scalar_outputs_report_the_family_statistics() {
     // compress the second by 0.5 %.
     let x = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]];
     let section = mt();
-    let mut set =
-        BeamSet::from_coordinates("mts", "microtubule", &x, &[[0, 1], [1, 2]], None, section)
-            .unwrap();
-    set.local_strain = LocalStrain::Chord;
+    let mut set = two_element_microtubule(&x);
     let map = DofMap::with_counts(&[6, 6, 6]);
     let mut u = vec![0.0; 18];
     u[map.dof(1, 0)] = 0.02;
@@ -356,10 +361,7 @@ fn a_beam_whose_reference_morphs_in_a_step_is_stress_free_at_the_target_and_stif
     let x = [[0.0, 0.0, 0.0], [2.0, 0.3, 0.0], [4.0, 0.0, 0.0]];
     let y = [[0.0, 0.0, 0.0], [2.2, 0.1, 0.2], [4.5, 0.4, 0.1]];
     let section = mt();
-    let mut set =
-        BeamSet::from_coordinates("mts", "microtubule", &x, &[[0, 1], [1, 2]], None, section)
-            .unwrap();
-    set.local_strain = LocalStrain::Chord;
+    let mut set = two_element_microtubule(&x);
     set.morph_reference_through(0, &[(1.0, &y[..])]).unwrap();
     let map = DofMap::with_counts(&[6, 6, 6]);
     let mut problem = Problem::new(
