@@ -23,6 +23,10 @@ pub struct Convergence {
     pub line_search_threshold: f64,
     /// How the iterations after the predictor get their direction.
     pub method: IterationMethod,
+    /// With full Newton: re-equilibrate the problem's relaxation blocks after every global
+    /// update (nonlinear elimination, [`crate::solve::Problem::set_relaxation_blocks`]);
+    /// no effect on a problem without blocks.
+    pub relaxation: bool,
 }
 
 /// How Newton's corrections after the first are computed.
@@ -52,6 +56,7 @@ impl Default for Convergence {
             max_augmentations: 50,
             line_search_threshold: 0.9,
             method: IterationMethod::Newton,
+            relaxation: true,
         }
     }
 }

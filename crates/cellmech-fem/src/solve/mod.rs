@@ -12,6 +12,7 @@ mod error;
 mod newton;
 mod observer;
 mod problem;
+mod relax;
 mod stabilize;
 mod step;
 
@@ -23,6 +24,7 @@ pub use error::{FailureReason, SolveError};
 pub use newton::IterationReport;
 pub use observer::{IncrementReport, NullObserver, Observer};
 pub use problem::{Problem, Timings, JUMP_WIDTH};
+pub use relax::RelaxationStats;
 pub use stabilize::StabilizationReport;
 pub use step::{GuessPath, Monitor, Motion, NodalLoad, Step, StopCondition};
 

@@ -91,6 +91,12 @@ impl Problem {
                 0.0
             };
         }
+        let relaxing =
+            self.relaxation.is_some() && conv.relaxation && conv.method == IterationMethod::Newton;
+        if relaxing {
+            let tolerance = conv.residual_tolerance * self.work.scale;
+            self.relax_blocks(tolerance);
+        }
         // Iteration 0: linearise at the converged start state.
         self.assemble_full(true)?;
         for d in 0..n {
@@ -140,13 +146,18 @@ impl Problem {
         let mut round_start = 0;
         for iteration in 0.. {
             // Update and evaluate at the new point (tangent included for the next solve).
+            let tolerance = conv.residual_tolerance * scale_floor.max(self.work.scale);
             if iteration == 0 {
                 for d in 0..n {
                     self.u[d] += self.work.delta[d];
                 }
+                if relaxing {
+                    self.relax_blocks(tolerance);
+                }
                 self.evaluate(quasi_newton == 0)?;
             } else {
-                step_length = self.line_search(conv, quasi_newton == 0)?;
+                step_length =
+                    self.line_search(conv, quasi_newton == 0, relaxing.then_some(tolerance))?;
             }
             let (residual_ratio, energy_ratio, scale) =
                 self.measure(&mut scale_floor, step_length, energy0);
@@ -184,6 +195,9 @@ impl Problem {
                             )));
                         }
                         // The terms changed: re-evaluate here and continue Newton.
+                        if relaxing {
+                            self.relax_blocks(conv.residual_tolerance * scale);
+                        }
                         self.evaluate(quasi_newton == 0)?;
                         round_start = iteration;
                         reform = true;
@@ -521,6 +535,7 @@ impl Problem {
         &mut self,
         conv: &Convergence,
         with_tangent: bool,
+        relax: Option<f64>,
     ) -> Result<f64, FailureReason> {
         let g0 = self.projection(&self.residual);
         let mut s = 1.0;
@@ -566,7 +581,36 @@ impl Problem {
         for d in 0..self.u.len() {
             self.u[d] += s * self.work.delta[d];
         }
+        if let Some(tolerance) = relax {
+            self.relax_blocks(tolerance);
+        }
         self.evaluate(with_tangent)?;
         Ok(s)
+    }
+
+    /// Moves every relaxation block to its own equilibrium at the current `u` (see
+    /// `solve::relax`), holding prescribed and constrained DOFs.
+    fn relax_blocks(&mut self, tolerance: f64) {
+        let Some(relaxation) = &mut self.relaxation else {
+            return;
+        };
+        let (prescribed, constraints) = (
+            &self.prescribed,
+            self.condensation.as_ref().map(|c| c.constraints()),
+        );
+        let damping = self
+            .stabilizer
+            .as_ref()
+            .filter(|st| st.rate != 0.0)
+            .map(|st| (st.weight.as_slice(), st.u_start.as_slice(), st.rate));
+        relaxation.relax(
+            &self.terms,
+            &self.dof_map,
+            &mut self.u,
+            &self.f_ext,
+            |d| prescribed[d] || constraints.is_some_and(|c| c.is_slave(d) || c.is_master(d)),
+            damping,
+            tolerance,
+        );
     }
 }

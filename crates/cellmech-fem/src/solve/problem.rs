@@ -3,6 +3,7 @@
 use super::control::{Extrapolation, StepControl};
 use super::error::SolveError;
 use super::observer::{IncrementReport, Observer};
+use super::relax::{Relaxation, RelaxationStats};
 use super::stabilize::{StabilizationReport, Stabilizer};
 use super::step::{Monitor, Motion, Step};
 use crate::assembly::Assembler;
@@ -87,6 +88,8 @@ pub struct Problem {
     pub(super) condensation: Option<Condensation>,
     /// Viscous stabilisation of the running step, if it has one.
     pub(super) stabilizer: Option<Stabilizer>,
+    /// Blocks of DOFs re-equilibrated after every global update (nonlinear elimination).
+    pub(super) relaxation: Option<Relaxation>,
 }
 
 /// Width (in step time) below which the bracket around a stop condition's crossing is taken
@@ -189,7 +192,28 @@ impl Problem {
             length_scale: 0.0,
             condensation,
             stabilizer: None,
+            relaxation: None,
         })
+    }
+
+    /// Nonlinear elimination (see `solve::relax`): after every global Newton update, each
+    /// block of global DOFs is moved to its own equilibrium by a local Newton solve with
+    /// all other DOFs held. For nearly mechanistic parts held at a few points (a free
+    /// filament's interior nodes) this resolves their large swings exactly instead of by
+    /// the global linearisation. The equilibrium found is the same; only the path of the
+    /// iterations changes. Used with full Newton only (not with BFGS). An empty list
+    /// switches it off.
+    pub fn set_relaxation_blocks(&mut self, blocks: Vec<Vec<usize>>) {
+        let relaxation = Relaxation::new(blocks, &self.terms, &self.dof_map);
+        self.relaxation = (relaxation.len() > 0).then_some(relaxation);
+    }
+
+    /// What the relaxation blocks did so far (zeros without them).
+    pub fn relaxation_stats(&self) -> RelaxationStats {
+        self.relaxation
+            .as_ref()
+            .map(|r| r.stats)
+            .unwrap_or_default()
     }
 
     /// Sets the number of threads for assembly and factorisation: `0` for rayon's default

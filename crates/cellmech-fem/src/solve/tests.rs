@@ -489,3 +489,77 @@ fn an_extrapolated_start_saves_iterations_on_a_smooth_nonlinear_path() {
         "{iterations} iterations extrapolated, {plain_iterations} without"
     );
 }
+
+/// A stiff spring holds node 1 against a load; a taut two-spring string hangs from node 1
+/// to a wall with its middle node 2 pulled 0.6 to the side: the string must swing onto the
+/// axis, a large rotation of soft springs, while node 1 barely moves.
+fn hanging_string() -> (Problem, Step) {
+    let nodes = [
+        [2.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.6, 0.0],
+        [-1.0, 0.0, 0.0],
+    ];
+    let mut wall = springs(&nodes, &[[0, 1]], 10.0);
+    wall.name = "wall".into();
+    let mut string = springs(&nodes, &[[1, 2], [2, 3]], 1.0);
+    string.rest_length = vec![0.8, 0.8];
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(wall), Box::new(string)];
+    let p = Problem::new(
+        DofMap::translational(nodes.len()),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut step = Step::new("load");
+    step.prescribed = [0, 1, 2, 4, 5, 8, 9, 10, 11]
+        .into_iter()
+        .map(|d| (d, Motion::Hold))
+        .collect();
+    step.loads = vec![NodalLoad { dof: 3, value: 2.0 }];
+    step.control.initial_increment = 1.0;
+    step.control.max_increment = 1.0;
+    (p, step)
+}
+
+#[test]
+fn relaxed_blocks_reach_the_same_equilibrium_in_fewer_global_iterations() {
+    let run = |relax: bool| {
+        let (mut p, step) = hanging_string();
+        if relax {
+            // All of node 2's DOFs: its held z is left out by the solver.
+            p.set_relaxation_blocks(vec![vec![6, 7, 8]]);
+        }
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        (p.u().to_vec(), rec.iterations, p.relaxation_stats())
+    };
+    let (plain, plain_iterations, none) = run(false);
+    let (relaxed, iterations, stats) = run(true);
+    // Closed form: node 2 on the axis midway, string tension (2 + u1)/2 - 0.8, and node 1
+    // in balance: 2 = 10 u1 + (2 + u1)/2 - 0.8, so u1 = 1.8 / 10.5.
+    let u1 = 1.8 / 10.5;
+    for u in [&plain, &relaxed] {
+        assert!((u[3] - u1).abs() < 1e-9, "u1 {}", u[3]);
+        assert!(
+            (u[6] - (u1 / 2.0)).abs() < 1e-9 && (u[7] + 0.6).abs() < 1e-9,
+            "{u:?}"
+        );
+        assert_eq!(u[8], 0.0);
+    }
+    assert_eq!(none.solves, 0);
+    assert!(stats.solves > 0 && stats.undone == 0, "{stats:?}");
+    assert!(
+        iterations.len() < plain_iterations.len(),
+        "{} global iterations relaxed, {} without",
+        iterations.len(),
+        plain_iterations.len()
+    );
+    // After every global update the block is in equilibrium, so what is left of the
+    // residual sits on node 1: the global iteration is Newton on the condensed problem.
+    // The last iterations converge quadratically.
+    let ratios: Vec<f64> = iterations.iter().map(|r| r.residual_ratio).collect();
+    for w in ratios.windows(2).filter(|w| w[0] < 1e-2 && w[1] > 0.0) {
+        assert!(w[1] < 10.0 * w[0] * w[0], "not quadratic: {ratios:?}");
+    }
+}

@@ -276,6 +276,11 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         Some(c) => Problem::with_constraints(dof_map, terms, c, solver)?,
         None => Problem::new(dof_map, terms, solver)?,
     };
+    problem.set_relaxation_blocks(structures::relaxation_blocks(
+        mesh,
+        structures,
+        problem.dof_map(),
+    ));
     let (lo, hi) = mesh.bounding_box();
     problem.set_length_scale((0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt());
     Ok(BuiltModel {

@@ -274,3 +274,76 @@ fn membrane_terms(
     }
     Ok(terms)
 }
+
+/// Relaxation blocks (`cellmech_fem::solve::Problem::set_relaxation_blocks`): for every
+/// filament chain of an enabled beam group, the DOFs that only that chain's beams touch:
+/// all six DOFs of an interior node that no continuum element, membrane face, truss or
+/// other chain uses, and the rotations of a node no other chain uses (an FA end: its
+/// translations belong to the cell surface). A hub shared by several chains (the
+/// centrosome) stays global. Other terms that touch a block DOF (a tool's contact with the
+/// filament, a foundation tie) take part in its local solve; the engine leaves out DOFs
+/// that are prescribed or constrained.
+pub fn relaxation_blocks(mesh: &Mesh, spec: &StructuresSpec, dof_map: &DofMap) -> Vec<Vec<usize>> {
+    const SHARED: usize = usize::MAX;
+    const NONE: usize = usize::MAX - 1;
+    let n = mesh.num_nodes().min(dof_map.num_nodes());
+    // Per node: the one chain whose beams use it (NONE, or SHARED when two do).
+    let mut chain_of = vec![NONE; n];
+    // Per node: used by anything translational other than beams.
+    let mut other = vec![false; n];
+    for block in &mesh.blocks {
+        for &node in &block.connectivity {
+            if node < n {
+                other[node] = true;
+            }
+        }
+    }
+    for m in spec.membranes.iter().filter(|m| m.enabled) {
+        for &node in m.faces.iter().flatten() {
+            if node < n {
+                other[node] = true;
+            }
+        }
+    }
+    let mut chains = 0;
+    for f in spec.filaments.iter().filter(|f| f.enabled) {
+        match f.element {
+            FilamentElement::Truss(_) => {
+                for &node in f.pairs.iter().flatten() {
+                    if node < n {
+                        other[node] = true;
+                    }
+                }
+            }
+            FilamentElement::Beam(_) => {
+                for filament in &f.filaments {
+                    let id = chains;
+                    chains += 1;
+                    for e in filament.elements.clone() {
+                        let Some(pair) = f.pairs.get(e) else { continue };
+                        for &node in pair {
+                            if node < n {
+                                chain_of[node] = match chain_of[node] {
+                                    NONE => id,
+                                    c if c == id => id,
+                                    _ => SHARED,
+                                };
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut blocks = vec![Vec::new(); chains];
+    for node in 0..n {
+        let c = chain_of[node];
+        if c == NONE || c == SHARED || dof_map.count(node) != 6 {
+            continue;
+        }
+        let first = if other[node] { 3 } else { 0 };
+        blocks[c].extend((first..6).map(|k| dof_map.dof(node, k)));
+    }
+    blocks.retain(|b| !b.is_empty());
+    blocks
+}
