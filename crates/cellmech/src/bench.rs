@@ -233,6 +233,9 @@ pub struct AnalysisBench {
     pub factorization_s: f64,
     /// Time in triangular solves (s).
     pub solve_s: f64,
+    /// Time in the local solves of the relaxation blocks (s).
+    #[serde(default)]
+    pub relaxation_s: f64,
     /// Wall time outside the solver (model build, outputs) (s).
     pub other_s: f64,
     /// Per step: name, increments, iterations, cutbacks, wall time (s).
@@ -289,7 +292,13 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
         residual_only_s: t.residual_only_s,
         factorization_s: t.factorization_s,
         solve_s: t.solve_s,
-        other_s: wall_s - t.assembly_s - t.residual_only_s - t.factorization_s - t.solve_s,
+        relaxation_s: t.relaxation_s,
+        other_s: wall_s
+            - t.assembly_s
+            - t.residual_only_s
+            - t.factorization_s
+            - t.solve_s
+            - t.relaxation_s,
         steps: summary
             .steps
             .iter()

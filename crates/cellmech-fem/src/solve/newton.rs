@@ -603,14 +603,16 @@ impl Problem {
             .as_ref()
             .filter(|st| st.rate != 0.0)
             .map(|st| (st.weight.as_slice(), st.u_start.as_slice(), st.rate));
-        relaxation.relax(
-            &self.terms,
-            &self.dof_map,
-            &mut self.u,
-            &self.f_ext,
-            |d| prescribed[d] || constraints.is_some_and(|c| c.is_slave(d) || c.is_master(d)),
-            damping,
-            tolerance,
-        );
+        let (pool, terms, u) = (&self.pool, &self.terms, &mut self.u);
+        pool.install(|| {
+            relaxation.relax(
+                terms,
+                u,
+                &self.f_ext,
+                |d| prescribed[d] || constraints.is_some_and(|c| c.is_slave(d) || c.is_master(d)),
+                damping,
+                tolerance,
+            )
+        });
     }
 }

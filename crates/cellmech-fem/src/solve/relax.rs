@@ -24,6 +24,8 @@
 //! solve. A local solve that does not converge puts its block back where the global step
 //! left it: the global Newton then proceeds as it would without elimination.
 
+use rayon::prelude::*;
+
 use crate::dof::DofMap;
 use crate::term::{Term, MAX_ELEMENT_DOFS};
 
@@ -32,12 +34,31 @@ const MAX_LOCAL_ITERATIONS: usize = 30;
 /// A block is relaxed to `‖R_b‖ ≤` this fraction of the global residual target.
 const LOCAL_TOLERANCE_FRACTION: f64 = 1e-2;
 
-/// One block: its DOFs and the elements that touch them.
+/// One block: its DOFs, the elements that touch them, and the scratch space of its solve.
+///
+/// The block works on a compact copy of the DOFs its elements touch: `dofs` (global
+/// indices) lists the block's own DOFs first (`own` of them), then the held ones.
 #[derive(Debug, Clone)]
 struct Block {
     dofs: Vec<usize>,
-    /// (term index, element index) of every element touching a block DOF.
-    elements: Vec<(usize, usize)>,
+    own: usize,
+    /// (term index, element index, first entry in `slots`) of every element touching it.
+    elements: Vec<(usize, usize, usize)>,
+    /// Per element, its DOFs as positions in `dofs`.
+    slots: Vec<usize>,
+    /// Compact DOF values.
+    values: Vec<f64>,
+    /// Which own DOFs move in this solve.
+    moving: Vec<bool>,
+    residual: Vec<f64>,
+    tangent: Vec<f64>,
+    /// Per own DOF: external force, viscous weight × rate, increment-start value.
+    load: Vec<f64>,
+    damping: Vec<f64>,
+    damping_start: Vec<f64>,
+    /// Outcome of the last solve: local iterations, and whether it was undone.
+    iterations: usize,
+    undone: bool,
 }
 
 /// What the relaxation did, summed over the problem's life (for logs and tests).
@@ -49,19 +70,16 @@ pub struct RelaxationStats {
     pub iterations: usize,
     /// Block solves that did not converge and were undone.
     pub undone: usize,
+    /// Wall time in the block solves (s).
+    pub seconds: f64,
 }
 
-/// The blocks of a problem and the scratch space of their local solves.
+/// The blocks of a problem.
 #[derive(Debug, Clone)]
 pub(super) struct Relaxation {
     blocks: Vec<Block>,
-    /// Local position of each global DOF in the block being solved (`usize::MAX`: not in it).
-    local: Vec<usize>,
-    /// Active DOFs of the block being solved.
-    active: Vec<usize>,
-    residual: Vec<f64>,
-    tangent: Vec<f64>,
-    start: Vec<f64>,
+    /// Whether no element touches two blocks: then the blocks are solved in parallel.
+    independent: bool,
     pub stats: RelaxationStats,
 }
 
@@ -74,50 +92,85 @@ impl Relaxation {
     pub fn new(blocks: Vec<Vec<usize>>, terms: &[Box<dyn Term>], dof_map: &DofMap) -> Self {
         let n = dof_map.num_dofs();
         let mut owner = vec![usize::MAX; n];
-        let blocks: Vec<Vec<usize>> = blocks
-            .into_iter()
-            .map(|mut b| {
-                b.retain(|&d| d < n);
-                b.sort_unstable();
-                b.dedup();
-                b
-            })
-            .filter(|b| !b.is_empty())
-            .collect();
-        for (i, b) in blocks.iter().enumerate() {
-            for &d in b {
-                owner[d] = i;
+        let mut own: Vec<Vec<usize>> = Vec::new();
+        for mut b in blocks {
+            b.retain(|&d| d < n && owner[d] == usize::MAX);
+            b.sort_unstable();
+            b.dedup();
+            if b.is_empty() {
+                continue;
             }
+            for &d in &b {
+                owner[d] = own.len();
+            }
+            own.push(b);
         }
-        let mut elements = vec![Vec::new(); blocks.len()];
+        let mut touching: Vec<Vec<(usize, usize)>> = vec![Vec::new(); own.len()];
+        let mut independent = true;
         let mut dofs = [0usize; MAX_ELEMENT_DOFS];
         for (t, term) in terms.iter().enumerate() {
             for e in 0..term.num_elements() {
                 let k = term.element_dofs(e, dof_map, &mut dofs);
-                let mut last = usize::MAX;
+                let mut first = usize::MAX;
                 for &d in &dofs[..k] {
                     let b = owner[d];
-                    if b != usize::MAX && b != last {
-                        if elements[b].last() != Some(&(t, e)) {
-                            elements[b].push((t, e));
+                    if b == usize::MAX {
+                        continue;
+                    }
+                    if first == usize::MAX {
+                        first = b;
+                        touching[b].push((t, e));
+                    } else if b != first {
+                        independent = false;
+                        if touching[b].last() != Some(&(t, e)) {
+                            touching[b].push((t, e));
                         }
-                        last = b;
                     }
                 }
             }
         }
-        let largest = blocks.iter().map(Vec::len).max().unwrap_or(0);
+        let blocks = own
+            .into_iter()
+            .zip(touching)
+            .map(|(own_dofs, elements)| {
+                let m = own_dofs.len();
+                let mut all = own_dofs;
+                let mut slots = Vec::new();
+                let mut listed = Vec::with_capacity(elements.len());
+                for (t, e) in elements {
+                    let k = terms[t].element_dofs(e, dof_map, &mut dofs);
+                    listed.push((t, e, slots.len()));
+                    for &d in &dofs[..k] {
+                        let position = match all.iter().position(|&x| x == d) {
+                            Some(p) => p,
+                            None => {
+                                all.push(d);
+                                all.len() - 1
+                            }
+                        };
+                        slots.push(position);
+                    }
+                }
+                Block {
+                    values: vec![0.0; all.len()],
+                    dofs: all,
+                    own: m,
+                    elements: listed,
+                    slots,
+                    moving: vec![false; m],
+                    residual: vec![0.0; m],
+                    tangent: vec![0.0; m * m],
+                    load: vec![0.0; m],
+                    damping: vec![0.0; m],
+                    damping_start: vec![0.0; m],
+                    iterations: 0,
+                    undone: false,
+                }
+            })
+            .collect();
         Relaxation {
-            blocks: blocks
-                .into_iter()
-                .zip(elements)
-                .map(|(dofs, elements)| Block { dofs, elements })
-                .collect(),
-            local: vec![usize::MAX; n],
-            active: Vec::with_capacity(largest),
-            residual: vec![0.0; largest],
-            tangent: vec![0.0; largest * largest],
-            start: vec![0.0; largest],
+            blocks,
+            independent,
             stats: RelaxationStats::default(),
         }
     }
@@ -131,57 +184,88 @@ impl Relaxation {
     /// of `terms`, plus the viscous forces of `damping` when a stabiliser is on), holding
     /// all other DOFs. `excluded(d)`: DOFs that must not move (prescribed, constrained).
     /// `tolerance`: the global residual target (nN); a block is solved to a hundredth of it.
+    /// Independent blocks are solved in parallel on the calling rayon pool; each block's
+    /// solve is the same whatever the thread count.
     #[allow(clippy::too_many_arguments)]
     pub fn relax(
         &mut self,
         terms: &[Box<dyn Term>],
-        dof_map: &DofMap,
         u: &mut [f64],
         f_ext: &[f64],
-        excluded: impl Fn(usize) -> bool,
+        excluded: impl Fn(usize) -> bool + Sync,
         damping: Damping<'_>,
         tolerance: f64,
     ) {
         if !(tolerance > 0.0) {
             return;
         }
+        let clock = std::time::Instant::now();
         let target = LOCAL_TOLERANCE_FRACTION * tolerance;
-        for b in 0..self.blocks.len() {
-            self.active.clear();
-            for &d in &self.blocks[b].dofs {
-                if !excluded(d) {
-                    self.local[d] = self.active.len();
-                    self.active.push(d);
-                }
+        if self.independent {
+            let u_read: &[f64] = u;
+            self.blocks
+                .par_iter_mut()
+                .with_min_len(4)
+                .for_each(|b| b.solve(terms, u_read, f_ext, &excluded, damping, target));
+            for b in &self.blocks {
+                b.scatter(u);
             }
-            if !self.active.is_empty() {
-                self.solve_block(b, terms, dof_map, u, f_ext, damping, target);
+        } else {
+            for b in &mut self.blocks {
+                b.solve(terms, u, f_ext, &excluded, damping, target);
+                b.scatter(u);
             }
-            for &d in &self.blocks[b].dofs {
-                self.local[d] = usize::MAX;
+        }
+        for b in &self.blocks {
+            self.stats.solves += usize::from(b.moving.iter().any(|&x| x));
+            self.stats.iterations += b.iterations;
+            self.stats.undone += usize::from(b.undone);
+        }
+        self.stats.seconds += clock.elapsed().as_secs_f64();
+    }
+}
+
+impl Block {
+    /// Writes the block's own values back into `u`.
+    fn scatter(&self, u: &mut [f64]) {
+        for i in 0..self.own {
+            if self.moving[i] {
+                u[self.dofs[i]] = self.values[i];
             }
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn solve_block(
+    /// Local Newton on the block's moving DOFs, from `u`; the result stays in `values`
+    /// (the start again when the solve did not converge).
+    fn solve(
         &mut self,
-        b: usize,
         terms: &[Box<dyn Term>],
-        dof_map: &DofMap,
-        u: &mut [f64],
+        u: &[f64],
         f_ext: &[f64],
+        excluded: &(impl Fn(usize) -> bool + Sync),
         damping: Damping<'_>,
         target: f64,
     ) {
-        let m = self.active.len();
-        for (i, &d) in self.active.iter().enumerate() {
-            self.start[i] = u[d];
+        self.iterations = 0;
+        self.undone = false;
+        for (value, &d) in self.values.iter_mut().zip(&self.dofs) {
+            *value = u[d];
         }
-        self.stats.solves += 1;
+        for i in 0..self.own {
+            let d = self.dofs[i];
+            self.moving[i] = !excluded(d);
+            self.load[i] = f_ext[d];
+            (self.damping[i], self.damping_start[i]) = match damping {
+                Some((weight, start, rate)) if weight[d] > 0.0 => (rate * weight[d], start[d]),
+                _ => (0.0, 0.0),
+            };
+        }
+        if !self.moving.iter().any(|&x| x) {
+            return;
+        }
         let mut first = f64::INFINITY;
         for iteration in 0..=MAX_LOCAL_ITERATIONS {
-            let Some(norm) = self.assemble(b, terms, dof_map, u, f_ext, damping) else {
+            let Some(norm) = self.assemble(terms) else {
                 break;
             };
             if iteration == 0 {
@@ -195,72 +279,68 @@ impl Relaxation {
             if iteration == MAX_LOCAL_ITERATIONS || !(norm <= 10.0 * first) {
                 break;
             }
-            self.stats.iterations += 1;
-            if !solve_dense(&mut self.tangent[..m * m], &mut self.residual[..m], m) {
+            self.iterations += 1;
+            let m = self.own;
+            if !solve_dense(&mut self.tangent, &mut self.residual, m) {
                 break;
             }
-            for (i, &d) in self.active.iter().enumerate() {
-                u[d] -= self.residual[i];
+            for i in 0..m {
+                self.values[i] -= self.residual[i];
             }
         }
-        self.stats.undone += 1;
-        for (i, &d) in self.active.iter().enumerate() {
-            u[d] = self.start[i];
+        self.undone = true;
+        for i in 0..self.own {
+            self.values[i] = u[self.dofs[i]];
         }
     }
 
-    /// The block's residual `R_b − f_ext,b` (into `residual`) and tangent `K_bb` at `u`;
-    /// returns ‖R_b − f_ext,b‖, or `None` when an element cannot be evaluated there.
-    fn assemble(
-        &mut self,
-        b: usize,
-        terms: &[Box<dyn Term>],
-        dof_map: &DofMap,
-        u: &[f64],
-        f_ext: &[f64],
-        damping: Damping<'_>,
-    ) -> Option<f64> {
-        let m = self.active.len();
-        self.residual[..m].fill(0.0);
-        self.tangent[..m * m].fill(0.0);
-        let mut dofs = [0usize; MAX_ELEMENT_DOFS];
+    /// The residual `R_b − f_ext,b` (into `residual`) and tangent `K_bb` of the moving
+    /// DOFs at `values` (held DOFs get an identity row and no residual); returns the norm,
+    /// or `None` when an element cannot be evaluated there.
+    fn assemble(&mut self, terms: &[Box<dyn Term>]) -> Option<f64> {
+        let m = self.own;
+        self.residual.fill(0.0);
+        self.tangent.fill(0.0);
         let mut u_e = [0.0; MAX_ELEMENT_DOFS];
         let mut r_e = [0.0; MAX_ELEMENT_DOFS];
         let mut k_e = [0.0; MAX_ELEMENT_DOFS * MAX_ELEMENT_DOFS];
-        for &(t, e) in &self.blocks[b].elements {
-            let term = &terms[t];
-            let k = term.element_dofs(e, dof_map, &mut dofs);
-            for i in 0..k {
-                u_e[i] = u[dofs[i]];
+        for (index, &(t, e, first)) in self.elements.iter().enumerate() {
+            let end = match self.elements.get(index + 1) {
+                Some(&(_, _, next)) => next,
+                None => self.slots.len(),
+            };
+            let slots = &self.slots[first..end];
+            let k = slots.len();
+            for (value, &s) in u_e.iter_mut().zip(slots) {
+                *value = self.values[s];
             }
             r_e[..k].fill(0.0);
             k_e[..k * k].fill(0.0);
-            term.evaluate(e, &u_e[..k], &mut r_e[..k], Some(&mut k_e[..k * k]))
+            terms[t]
+                .evaluate(e, &u_e[..k], &mut r_e[..k], Some(&mut k_e[..k * k]))
                 .ok()?;
-            for i in 0..k {
-                let li = self.local[dofs[i]];
-                if li == usize::MAX {
+            for (i, &si) in slots.iter().enumerate() {
+                if si >= m || !self.moving[si] {
                     continue;
                 }
-                self.residual[li] += r_e[i];
-                for j in 0..k {
-                    let lj = self.local[dofs[j]];
-                    if lj != usize::MAX {
-                        self.tangent[li * m + lj] += k_e[i * k + j];
+                self.residual[si] += r_e[i];
+                for (j, &sj) in slots.iter().enumerate() {
+                    if sj < m && self.moving[sj] {
+                        self.tangent[si * m + sj] += k_e[i * k + j];
                     }
                 }
             }
         }
-        for (i, &d) in self.active.iter().enumerate() {
-            if let Some((weight, u_start, rate)) = damping {
-                if weight[d] > 0.0 {
-                    self.residual[i] += rate * weight[d] * (u[d] - u_start[d]);
-                    self.tangent[i * m + i] += rate * weight[d];
-                }
+        for i in 0..m {
+            if self.moving[i] {
+                self.residual[i] +=
+                    self.damping[i] * (self.values[i] - self.damping_start[i]) - self.load[i];
+                self.tangent[i * m + i] += self.damping[i];
+            } else {
+                self.tangent[i * m + i] = 1.0;
             }
-            self.residual[i] -= f_ext[d];
         }
-        let norm = self.residual[..m].iter().map(|x| x * x).sum::<f64>().sqrt();
+        let norm = self.residual.iter().map(|x| x * x).sum::<f64>().sqrt();
         norm.is_finite().then_some(norm)
     }
 }

@@ -144,6 +144,9 @@ pub struct StepSection {
     /// Where Newton starts each increment after the step's first: `"linear"` (default:
     /// the last increment's displacement extrapolated) or `"none"` (the converged state).
     pub extrapolation: Option<Spanned<String>>,
+    /// `"filaments"` (default) or `"off"`: whether beam filaments are relaxed by their
+    /// own Newton solves after every global update (nonlinear elimination).
+    pub relaxation: Option<Spanned<String>>,
     /// Viscous stabilisation: `"off"` (default), `"on-difficulty"` or `"always"`.
     pub stabilization: Option<Spanned<String>>,
     /// Fraction of the first increment's strain energy the calibrated viscosity dissipates

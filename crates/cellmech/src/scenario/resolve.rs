@@ -538,6 +538,22 @@ fn resolve_step(
             }
         },
     };
+    control.convergence.relaxation = match &s.relaxation {
+        // Free filaments in fewer global iterations, to the same equilibrium
+        // (docs/performance.md, "Nonlinear elimination of the free filaments").
+        None => true,
+        Some(word) => match word.get_ref().as_str() {
+            "filaments" => true,
+            "off" => false,
+            other => {
+                return Err(ctx.invalid(
+                    Some(word.span()),
+                    &key("relaxation"),
+                    format!("expected \"filaments\" or \"off\"; found \"{other}\""),
+                ))
+            }
+        },
+    };
     let c = &control;
     let tol = &c.convergence;
     if !(tol.residual_tolerance > 0.0

@@ -105,6 +105,9 @@ pub struct AdherentCell {
     pub stabilization: Option<cellmech_fem::solve::Stabilization>,
     /// How Newton's corrections after the first are computed.
     pub iteration: cellmech_fem::solve::IterationMethod,
+    /// Whether every step relaxes the beam filaments by their own Newton solves
+    /// (`solver.relaxation`, nonlinear elimination).
+    pub relaxation: bool,
     /// Where the mesh is refined for an indenter (`None`: the base mesh). The AFM protocol
     /// sets it to its site.
     pub site: Option<IndentationSite>,
@@ -129,6 +132,7 @@ impl AdherentCell {
             coupling: s::coupling_from_values(values),
             stabilization: s::stabilization_from_values(values),
             iteration: s::iteration_from_values(values),
+            relaxation: s::relaxation_from_values(values),
             site: None,
         }
     }
@@ -140,6 +144,7 @@ impl AdherentCell {
             ..Default::default()
         };
         control.convergence.method = self.iteration;
+        control.convergence.relaxation = self.relaxation;
         control
     }
 

@@ -71,6 +71,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         p("microtubules.stress_free", K::Choice(&["unstressed-cell", "prestressed-cell"]), D::Word("unstressed-cell"), ANY, "where the MTs are stress-free: in the unstressed cell (the mesh) or in the prestressed cell (their stress-free shape is the mesh shape carried by the prestress's contraction of the gel, recorded in a first pass without them)", "choice ([adherent cell](adherent-cell.md#coupling): with the elastic cortex the first pass, the cell without MTs, does not reach a prestressed equilibrium, and the analysis fails)"),
         shared::SOLVER_STABILIZATION,
         shared::SOLVER_ITERATION,
+        shared::SOLVER_RELAXATION,
         shared::INTERMEDIATE_YOUNGS_MODULUS,
         shared::INTERMEDIATE_DIAMETER,
         shared::INTERMEDIATE_SLACK,

@@ -536,6 +536,9 @@ pub struct SuspendedCell {
     pub stabilization: Option<cellmech_fem::solve::Stabilization>,
     /// How Newton's corrections after the first are computed in every step.
     pub iteration: cellmech_fem::solve::IterationMethod,
+    /// Whether every step relaxes the beam filaments by their own Newton solves
+    /// (`solver.relaxation`, nonlinear elimination).
+    pub relaxation: bool,
 }
 
 impl Default for SuspendedCell {
@@ -556,6 +559,7 @@ impl SuspendedCell {
             ..Default::default()
         };
         control.convergence.method = self.iteration;
+        control.convergence.relaxation = self.relaxation;
         control
     }
 
@@ -569,6 +573,7 @@ impl SuspendedCell {
             coupling: params::coupling_from_values(values),
             stabilization: params::stabilization_from_values(values),
             iteration: params::iteration_from_values(values),
+            relaxation: params::relaxation_from_values(values),
         }
     }
 

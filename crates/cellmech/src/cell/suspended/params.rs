@@ -195,6 +195,8 @@ pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
 pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)");
 /// `solver.iteration` (shared by the cell models).
 pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)");
+/// `solver.relaxation` (shared by the cell models).
+pub(crate) const SOLVER_RELAXATION: ParamDef = p("solver.relaxation", K::Choice(&["filaments", "off"]), D::Word("filaments"), ANY, "with full Newton: after every global update, each beam filament's own DOFs (the interior nodes of a free MT, the rotations at its ends) are moved to their equilibrium by a local Newton solve with the rest held (nonlinear elimination); the same equilibrium in fewer global iterations, or off", "choice, measured ([performance](performance.md#nonlinear-elimination-of-the-free-filaments)): default tension 74 -> 41 factorisations, compression 258 -> 160, forces within 3e-10");
 /// `intermediate.youngs_modulus` (shared by the cell models).
 pub(crate) const INTERMEDIATE_YOUNGS_MODULUS: ParamDef = p(
     "intermediate.youngs_modulus",
@@ -410,6 +412,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         MICROTUBULES_STRESS_FREE,
         SOLVER_STABILIZATION,
         SOLVER_ITERATION,
+        SOLVER_RELAXATION,
         INTERMEDIATE_YOUNGS_MODULUS,
         INTERMEDIATE_DIAMETER,
         INTERMEDIATE_SLACK,
@@ -549,6 +552,12 @@ pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
         "bfgs" => IterationMethod::Bfgs { max_updates: 10 },
         _ => IterationMethod::Newton,
     }
+}
+
+/// Whether the filaments are relaxed (nonlinear elimination) in every step, from resolved
+/// values of [`SUSPENDED_CELL`].
+pub fn relaxation_from_values(v: &ParamValues) -> bool {
+    v.word("solver.relaxation") != "off"
 }
 
 /// The cytoskeleton's coupling from resolved values of [`SUSPENDED_CELL`].
