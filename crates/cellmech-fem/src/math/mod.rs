@@ -4,10 +4,12 @@
 //! helpers used throughout the engine ([`vec3`]), and the bracket of a piecewise-linear
 //! path ([`knot_bracket`]).
 
+pub mod dual;
 pub mod hyperdual;
 pub mod rotation;
 pub mod vec3;
 
+pub use dual::Dual;
 pub use hyperdual::{HyperDual, Scalar, HD_N};
 
 /// Where step time `t` falls on a piecewise-linear path through knots at `times`

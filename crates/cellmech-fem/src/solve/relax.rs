@@ -265,19 +265,25 @@ impl Block {
         }
         let mut first = f64::INFINITY;
         for iteration in 0..=MAX_LOCAL_ITERATIONS {
-            let Some(norm) = self.assemble(terms) else {
+            // After an update, check the residual alone first (the tangent costs six times
+            // as much and is wasted when the block has converged).
+            if iteration > 0 {
+                match self.assemble(terms, false) {
+                    Some(norm) if norm <= target => return,
+                    Some(norm) if norm <= 10.0 * first && iteration < MAX_LOCAL_ITERATIONS => {}
+                    // A local solve that grows the residual past its start has left the
+                    // basin: give up rather than carry the block onto another branch.
+                    _ => break,
+                }
+            }
+            let Some(norm) = self.assemble(terms, true) else {
                 break;
             };
             if iteration == 0 {
                 first = norm;
-            }
-            if norm <= target {
-                return;
-            }
-            // A local solve that grows the residual past its start has left the basin:
-            // give up rather than carry the block onto another branch.
-            if iteration == MAX_LOCAL_ITERATIONS || !(norm <= 10.0 * first) {
-                break;
+                if norm <= target {
+                    return;
+                }
             }
             self.iterations += 1;
             let m = self.own;
@@ -294,10 +300,10 @@ impl Block {
         }
     }
 
-    /// The residual `R_b − f_ext,b` (into `residual`) and tangent `K_bb` of the moving
-    /// DOFs at `values` (held DOFs get an identity row and no residual); returns the norm,
-    /// or `None` when an element cannot be evaluated there.
-    fn assemble(&mut self, terms: &[Box<dyn Term>]) -> Option<f64> {
+    /// The residual `R_b − f_ext,b` (into `residual`) and, when asked, the tangent `K_bb` of
+    /// the moving DOFs at `values` (held DOFs get an identity row and no residual); returns
+    /// the norm, or `None` when an element cannot be evaluated there.
+    fn assemble(&mut self, terms: &[Box<dyn Term>], with_tangent: bool) -> Option<f64> {
         let m = self.own;
         self.residual.fill(0.0);
         self.tangent.fill(0.0);
@@ -316,14 +322,18 @@ impl Block {
             }
             r_e[..k].fill(0.0);
             k_e[..k * k].fill(0.0);
+            let tangent = with_tangent.then_some(&mut k_e[..k * k]);
             terms[t]
-                .evaluate(e, &u_e[..k], &mut r_e[..k], Some(&mut k_e[..k * k]))
+                .evaluate(e, &u_e[..k], &mut r_e[..k], tangent)
                 .ok()?;
             for (i, &si) in slots.iter().enumerate() {
                 if si >= m || !self.moving[si] {
                     continue;
                 }
                 self.residual[si] += r_e[i];
+                if !with_tangent {
+                    continue;
+                }
                 for (j, &sj) in slots.iter().enumerate() {
                     if sj < m && self.moving[sj] {
                         self.tangent[si * m + sj] += k_e[i * k + j];

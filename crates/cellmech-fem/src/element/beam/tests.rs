@@ -413,3 +413,40 @@ fn a_beam_whose_reference_morphs_in_a_step_is_stress_free_at_the_target_and_stif
         "tip force {force} vs EA·δ/L {expected} (L = {length} of the target)"
     );
 }
+
+#[test]
+fn the_residual_alone_equals_the_residual_computed_with_the_tangent() {
+    // Residual-only evaluations use first-order duals, the tangent's hyperduals: the same
+    // derivatives, on random large deformations with both local strain measures.
+    let (section, reference) = (test_section(), test_reference());
+    let mut rng = Lcg(11);
+    for strain in [LocalStrain::ShallowArch, LocalStrain::Chord] {
+        for _ in 0..20 {
+            let mut u = [0.0; BEAM_DOFS];
+            for (i, x) in u.iter_mut().enumerate() {
+                *x = rng.next() * if i % 6 < 3 { 0.3 } else { 1.2 };
+            }
+            let (mut alone, mut with) = ([0.0; BEAM_DOFS], [0.0; BEAM_DOFS]);
+            let mut tangent = [0.0; BEAM_DOFS * BEAM_DOFS];
+            let e1 =
+                beam_evaluate_with(strain, &section, &reference, &u, &mut alone, None).unwrap();
+            let e2 = beam_evaluate_with(
+                strain,
+                &section,
+                &reference,
+                &u,
+                &mut with,
+                Some(&mut tangent),
+            )
+            .unwrap();
+            assert_eq!(e1, e2);
+            let scale = with.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            for i in 0..BEAM_DOFS {
+                assert!(
+                    (alone[i] - with[i]).abs() <= 1e-13 * scale,
+                    "{i}: {alone:?} {with:?}"
+                );
+            }
+        }
+    }
+}
