@@ -23,7 +23,7 @@ pub struct Convergence {
     pub line_search_threshold: f64,
     /// How the iterations after the predictor get their direction.
     pub method: IterationMethod,
-    /// With full Newton: re-equilibrate the problem's relaxation blocks after every global
+    /// Re-equilibrate the problem's relaxation blocks after every global
     /// update (nonlinear elimination, [`crate::solve::Problem::set_relaxation_blocks`]);
     /// no effect on a problem without blocks.
     pub relaxation: bool,

@@ -91,8 +91,7 @@ impl Problem {
                 0.0
             };
         }
-        let relaxing =
-            self.relaxation.is_some() && conv.relaxation && conv.method == IterationMethod::Newton;
+        let relaxing = self.relaxation.is_some() && conv.relaxation;
         if relaxing {
             let tolerance = conv.residual_tolerance * self.work.scale;
             self.relax_blocks(tolerance);

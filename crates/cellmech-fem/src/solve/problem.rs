@@ -208,7 +208,8 @@ impl Problem {
     /// all other DOFs held. For nearly mechanistic parts held at a few points (a free
     /// filament's interior nodes) this resolves their large swings exactly instead of by
     /// the global linearisation. The equilibrium found is the same; only the path of the
-    /// iterations changes. Used with full Newton only (not with BFGS). An empty list
+    /// iterations changes. With BFGS the updates then act on the condensed problem (the
+    /// blocks' residuals are zero after every update). An empty list
     /// switches it off.
     pub fn set_relaxation_blocks(&mut self, blocks: Vec<Vec<usize>>) {
         let relaxation = Relaxation::new(blocks, &self.terms, &self.dof_map);
