@@ -5,9 +5,9 @@
 //!
 //! - `(a·b) = (aᵥbᵥ, aᵥ∇b + bᵥ∇a)`, `f(a) = (f(aᵥ), f′(aᵥ)∇a)`.
 
-use std::ops::{Add, Div, Mul, Neg, Sub};
+use std::ops::{Add, Mul, Sub};
 
-use super::hyperdual::{Scalar, HD_N};
+use super::hyperdual::{derived_scalar_ops, Scalar, HD_N};
 
 /// A value with its exact gradient with respect to [`HD_N`] variables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,6 +49,8 @@ impl Scalar for Dual {
     }
 }
 
+derived_scalar_ops!(Dual);
+
 impl Add for Dual {
     type Output = Self;
     #[inline]
@@ -73,14 +75,6 @@ impl Sub for Dual {
     }
 }
 
-impl Neg for Dual {
-    type Output = Self;
-    #[inline]
-    fn neg(self) -> Self {
-        self * -1.0
-    }
-}
-
 impl Mul for Dual {
     type Output = Self;
     #[inline]
@@ -90,32 +84,6 @@ impl Mul for Dual {
             r.g[i] = self.v * b.g[i] + b.v * self.g[i];
         }
         r
-    }
-}
-
-impl Div for Dual {
-    type Output = Self;
-    #[inline]
-    fn div(self, b: Self) -> Self {
-        self * b.recip()
-    }
-}
-
-impl Add<f64> for Dual {
-    type Output = Self;
-    #[inline]
-    fn add(mut self, c: f64) -> Self {
-        self.v += c;
-        self
-    }
-}
-
-impl Sub<f64> for Dual {
-    type Output = Self;
-    #[inline]
-    fn sub(mut self, c: f64) -> Self {
-        self.v -= c;
-        self
     }
 }
 

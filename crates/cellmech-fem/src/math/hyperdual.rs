@@ -146,6 +146,49 @@ impl Scalar for HyperDual {
     }
 }
 
+/// The operations every forward-mode scalar derives the same way from its value field `v`,
+/// its `Mul<f64>` and its [`Scalar::recip`]: `−a`, `a / b`, `a + c`, `a − c`.
+macro_rules! derived_scalar_ops {
+    ($t:ty) => {
+        impl std::ops::Neg for $t {
+            type Output = Self;
+            #[inline]
+            fn neg(self) -> Self {
+                self * -1.0
+            }
+        }
+
+        impl std::ops::Div for $t {
+            type Output = Self;
+            #[inline]
+            fn div(self, b: Self) -> Self {
+                self * $crate::math::Scalar::recip(b)
+            }
+        }
+
+        impl std::ops::Add<f64> for $t {
+            type Output = Self;
+            #[inline]
+            fn add(mut self, c: f64) -> Self {
+                self.v += c;
+                self
+            }
+        }
+
+        impl std::ops::Sub<f64> for $t {
+            type Output = Self;
+            #[inline]
+            fn sub(mut self, c: f64) -> Self {
+                self.v -= c;
+                self
+            }
+        }
+    };
+}
+pub(crate) use derived_scalar_ops;
+
+derived_scalar_ops!(HyperDual);
+
 impl Add for HyperDual {
     type Output = Self;
     #[inline]
@@ -176,14 +219,6 @@ impl Sub for HyperDual {
     }
 }
 
-impl Neg for HyperDual {
-    type Output = Self;
-    #[inline]
-    fn neg(self) -> Self {
-        self * -1.0
-    }
-}
-
 impl Mul for HyperDual {
     type Output = Self;
     #[inline]
@@ -202,32 +237,6 @@ impl Mul for HyperDual {
             r.g[i] = a.v * b.g[i] + b.v * a.g[i];
         }
         r
-    }
-}
-
-impl Div for HyperDual {
-    type Output = Self;
-    #[inline]
-    fn div(self, b: Self) -> Self {
-        self * b.recip()
-    }
-}
-
-impl Add<f64> for HyperDual {
-    type Output = Self;
-    #[inline]
-    fn add(mut self, c: f64) -> Self {
-        self.v += c;
-        self
-    }
-}
-
-impl Sub<f64> for HyperDual {
-    type Output = Self;
-    #[inline]
-    fn sub(mut self, c: f64) -> Self {
-        self.v -= c;
-        self
     }
 }
 
