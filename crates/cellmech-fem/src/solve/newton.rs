@@ -72,11 +72,15 @@ impl Problem {
     /// Solves the increment to the prescribed values `target_u` (prescribed DOFs) and loads
     /// `target_f`. On success `self.u`, `self.residual` and `self.energy` hold the converged
     /// state and the iteration count is returned; on failure the state is garbage and the
-    /// caller restores it.
+    /// caller restores it. `start_moved`: Newton starts away from the last converged state
+    /// (an extrapolation, a guess path, or a state reached with viscous forces), so the
+    /// relaxation blocks are re-equilibrated there first; at a converged state they already
+    /// are.
     pub(super) fn newton_increment(
         &mut self,
         target_u: &[f64],
         target_f: &[f64],
+        start_moved: bool,
         control: &StepControl,
         observer: &mut dyn Observer,
     ) -> Result<usize, FailureReason> {
@@ -92,7 +96,7 @@ impl Problem {
             };
         }
         let relaxing = self.relaxation.is_some() && conv.relaxation;
-        if relaxing {
+        if relaxing && start_moved {
             let tolerance = conv.residual_tolerance * self.work.scale;
             self.relax_blocks(tolerance);
         }

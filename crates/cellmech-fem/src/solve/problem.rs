@@ -432,7 +432,7 @@ impl Problem {
             for term in &mut self.terms {
                 term.predict(&self.u, &self.dof_map);
             }
-            let outcome = self.newton_increment(&target_u, &target_f, control, observer);
+            let outcome = self.newton_increment(&target_u, &target_f, guessed, control, observer);
             if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
                 let g = gap(self).unwrap_or(g0);
                 if !across_jump
@@ -605,7 +605,7 @@ impl Problem {
             if let Some(st) = &mut self.stabilizer {
                 st.rate = 0.0;
             }
-            match self.newton_increment(target_u, target_f, control, observer) {
+            match self.newton_increment(target_u, target_f, true, control, observer) {
                 Ok(more) => {
                     *iterations += more;
                     equilibrated = true;
