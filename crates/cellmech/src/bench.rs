@@ -292,13 +292,13 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
         residual_only_s: t.residual_only_s,
         factorization_s: t.factorization_s,
         solve_s: t.solve_s,
-        relaxation_s: t.relaxation_s,
+        relaxation_s: t.relaxation.seconds,
         other_s: wall_s
             - t.assembly_s
             - t.residual_only_s
             - t.factorization_s
             - t.solve_s
-            - t.relaxation_s,
+            - t.relaxation.seconds,
         steps: summary
             .steps
             .iter()

@@ -53,13 +53,9 @@ pub struct Timings {
     pub assemblies: usize,
     /// Number of numeric factorisations.
     pub factorizations: usize,
-    /// Local solves of the relaxation blocks (nonlinear elimination) (s).
-    pub relaxation_s: f64,
-    /// Block solves of the relaxation, local Newton iterations in them, and the solves
-    /// that did not converge and were undone.
-    pub relaxation_solves: usize,
-    pub relaxation_iterations: usize,
-    pub relaxation_undone: usize,
+    /// The relaxation blocks' local solves (nonlinear elimination): count, iterations,
+    /// undone solves and time.
+    pub relaxation: RelaxationStats,
 }
 
 /// A nonlinear static problem.
@@ -293,12 +289,8 @@ impl Problem {
 
     /// Time spent assembling, factorising and solving so far.
     pub fn timings(&self) -> Timings {
-        let r = self.relaxation_stats();
         Timings {
-            relaxation_s: r.seconds,
-            relaxation_solves: r.solves,
-            relaxation_iterations: r.iterations,
-            relaxation_undone: r.undone,
+            relaxation: self.relaxation_stats(),
             ..self.timings
         }
     }
