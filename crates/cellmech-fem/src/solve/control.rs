@@ -27,7 +27,27 @@ pub struct Convergence {
     /// update (nonlinear elimination, [`crate::solve::Problem::set_relaxation_blocks`]);
     /// no effect on a problem without blocks.
     pub relaxation: bool,
+    /// Full Newton only: near convergence, solve with the last factorisation instead of
+    /// refactorising (a chord step). Taken when the residual is within
+    /// [`CHORD_WINDOW`] times `residual_tolerance` and the last full Newton step contracted
+    /// it at least [`CHORD_CONTRACTION`]-fold (the quadratic regime, where the chord
+    /// step's error is about the product of the last two errors); chord steps go on while
+    /// each divides the residual at least [`CHORD_CONTINUATION`]-fold, and full Newton
+    /// resumes as soon as one contracts less. No chord step right after the active set or
+    /// the multipliers changed. The convergence criteria are unchanged, so the accepted
+    /// states meet the same tolerances.
+    pub chord_near_convergence: bool,
 }
+
+/// A chord step is tried when the residual ratio is at most this multiple of the
+/// residual tolerance ([`Convergence::chord_near_convergence`]).
+pub const CHORD_WINDOW: f64 = 1e3;
+
+/// ... and the last full Newton step divided the residual by at least this factor.
+pub const CHORD_CONTRACTION: f64 = 1e2;
+
+/// A further chord step follows one that divided the residual by at least this factor.
+pub const CHORD_CONTINUATION: f64 = 1e1;
 
 /// How Newton's corrections after the first are computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -57,6 +77,7 @@ impl Default for Convergence {
             line_search_threshold: 0.9,
             method: IterationMethod::Newton,
             relaxation: true,
+            chord_near_convergence: true,
         }
     }
 }

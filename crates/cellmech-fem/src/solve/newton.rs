@@ -7,7 +7,9 @@
 //! not dropped enough. Convergence needs both the residual and the energy criterion.
 
 use super::constrained::solver_pattern;
-use super::control::{Convergence, IterationMethod, StepControl};
+use super::control::{
+    Convergence, IterationMethod, StepControl, CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW,
+};
 use super::error::FailureReason;
 use super::observer::Observer;
 use super::problem::Problem;
@@ -31,6 +33,9 @@ pub struct IterationReport {
     pub line_search: f64,
     /// ‖δ‖ (µm) of the iteration's correction.
     pub correction_norm: f64,
+    /// The correction was a chord step: solved with an earlier factorisation
+    /// ([`Convergence::chord_near_convergence`]).
+    pub chord: bool,
 }
 
 /// Largest quasi-Newton correction as a multiple of the previous step before the tangent
@@ -147,6 +152,10 @@ impl Problem {
         let mut step_length = 1.0;
         let mut augmentations = 0;
         let mut round_start = 0;
+        // Whether the last correction was a chord step (full Newton near convergence), and
+        // the residual ratio before it.
+        let mut chord = false;
+        let mut previous_ratio = f64::INFINITY;
         for iteration in 0.. {
             // Update and evaluate at the new point (tangent included for the next solve).
             let tolerance = conv.residual_tolerance * scale_floor.max(self.work.scale);
@@ -172,6 +181,7 @@ impl Problem {
                 force_scale: scale,
                 line_search: step_length,
                 correction_norm: self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt(),
+                chord,
             };
             self.work.history.push(residual_ratio);
             observer.on_iteration(&report);
@@ -226,7 +236,30 @@ impl Problem {
                 };
             }
             if quasi_newton == 0 {
-                self.factorize_and_solve()?;
+                // The residual a round starts from: the last one measured, or, right after
+                // the terms changed, the one they changed it to.
+                let before = if augmentations > 0 && iteration == round_start {
+                    norm_where(&self.work.rhs, &self.prescribed, false) / scale
+                } else {
+                    residual_ratio
+                };
+                chord = self.chord_step_pays(
+                    conv,
+                    iteration,
+                    round_start,
+                    step_length,
+                    chord,
+                    previous_ratio,
+                );
+                previous_ratio = before;
+                if chord {
+                    // The last factorisation, no update pairs: a chord step.
+                    self.work.updates = 0;
+                    self.quasi_newton_direction()?;
+                    self.timings.chord_steps += 1;
+                } else {
+                    self.factorize_and_solve()?;
+                }
                 continue;
             }
             // Quasi-Newton: book the last step as an update, then reuse the factorisation
@@ -259,6 +292,36 @@ impl Problem {
             self.work.r_prev.copy_from_slice(&self.work.rhs);
         }
         unreachable!("the loop only ends by returning")
+    }
+
+    /// Whether full Newton may solve this iteration with the last factorisation
+    /// ([`Convergence::chord_near_convergence`]): the residual is within the chord window,
+    /// and the last step (from residual ratio `before`) was a full step of this round
+    /// (after the terms last changed) that contracted the residual at least
+    /// [`CHORD_CONTRACTION`]-fold (so the factorisation is of a nearby tangent of the same
+    /// active set), or itself a chord step that contracted it at least
+    /// [`CHORD_CONTINUATION`]-fold.
+    fn chord_step_pays(
+        &self,
+        conv: &Convergence,
+        iteration: usize,
+        round_start: usize,
+        step_length: f64,
+        after_chord: bool,
+        before: f64,
+    ) -> bool {
+        if !conv.chord_near_convergence || iteration <= round_start || step_length != 1.0 {
+            return false;
+        }
+        let Some(&now) = self.work.history.last() else {
+            return false;
+        };
+        let contraction = if after_chord {
+            CHORD_CONTINUATION
+        } else {
+            CHORD_CONTRACTION
+        };
+        now <= CHORD_WINDOW * conv.residual_tolerance && now * contraction <= before
     }
 
     /// Stores the last step `s·δ` and the residual change it caused as a BFGS update pair

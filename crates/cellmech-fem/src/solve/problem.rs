@@ -53,6 +53,9 @@ pub struct Timings {
     pub assemblies: usize,
     /// Number of numeric factorisations.
     pub factorizations: usize,
+    /// Newton corrections solved with an earlier factorisation near convergence (chord
+    /// steps, [`crate::solve::Convergence::chord_near_convergence`]).
+    pub chord_steps: usize,
     /// The relaxation blocks' local solves (nonlinear elimination): count, iterations,
     /// undone solves and time.
     pub relaxation: RelaxationStats,

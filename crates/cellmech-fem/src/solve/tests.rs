@@ -115,6 +115,8 @@ fn newton_converges_quadratically_on_a_large_rotation_spring_problem() {
     let (mut p, mut step) = large_rotation_spring();
     step.control.initial_increment = 1.0;
     step.control.max_increment = 1.0;
+    // Every correction from a fresh tangent (no chord steps near convergence).
+    step.control.convergence.chord_near_convergence = false;
     let mut rec = Recorder::default();
     p.run_step(&step, &mut rec).unwrap();
     // Equilibrium: the spring aligns with the load (4, 3), N = 5 = k (l - 0.8) -> l = 1.3.
@@ -133,6 +135,48 @@ fn newton_converges_quadratically_on_a_large_rotation_spring_problem() {
     for w in tail {
         assert!(w[1] < 10.0 * w[0] * w[0], "not quadratic: {ratios:?}");
     }
+}
+
+#[test]
+fn chord_steps_near_convergence_reach_the_same_equilibrium_with_fewer_factorisations() {
+    // The large-rotation spring in one increment, with and without chord steps: the same
+    // closed-form equilibrium to the tolerance, fewer factorisations, and chord steps only
+    // where the residual was already within the chord window.
+    let solve = |chord: bool| {
+        let (mut p, mut step) = large_rotation_spring();
+        step.control.initial_increment = 1.0;
+        step.control.max_increment = 1.0;
+        step.control.convergence.chord_near_convergence = chord;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        let t = p.timings();
+        (p.u()[3], p.u()[4], t.factorizations, t.chord_steps, rec)
+    };
+    let (x, y, fresh, none, _) = solve(false);
+    let (xc, yc, factorizations, chords, rec) = solve(true);
+    assert_eq!(none, 0);
+    assert!(chords > 0, "no chord step taken");
+    assert!(
+        factorizations < fresh,
+        "{factorizations} factorisations with chord steps, {fresh} without"
+    );
+    for (a, b) in [(x, xc), (y, yc)] {
+        assert!((a - b).abs() < 1e-8, "{a} vs {b}");
+    }
+    assert!((1.0 + xc - 1.04).abs() < 1e-8 && (yc - 0.78).abs() < 1e-8);
+    let tolerance = crate::solve::Convergence::default().residual_tolerance;
+    let window = crate::solve::CHORD_WINDOW * tolerance;
+    for w in rec.iterations.windows(2) {
+        if w[1].chord {
+            assert!(
+                w[0].residual_ratio <= window,
+                "chord step from {:e}",
+                w[0].residual_ratio
+            );
+        }
+    }
+    let last = rec.iterations.last().unwrap();
+    assert!(last.residual_ratio <= tolerance, "{last:?}");
 }
 
 /// One DOF on a softening support: force sin(u), so no equilibrium exists beyond 1 nN.

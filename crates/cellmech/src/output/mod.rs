@@ -125,6 +125,7 @@ impl OutputWriter {
             "force_scale_nN",
             "line_search",
             "correction_norm_um",
+            "chord",
         ];
         let convergence_csv =
             CurveWriter::create(&dir.join("convergence.csv"), &convergence_header)
@@ -330,6 +331,7 @@ impl Observer for OutputWriter {
             r.force_scale,
             r.line_search,
             r.correction_norm,
+            f64::from(u8::from(r.chord)),
         ];
         let result = self.convergence_csv.push_row(&row);
         self.record(result);

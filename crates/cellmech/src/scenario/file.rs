@@ -147,6 +147,9 @@ pub struct StepSection {
     /// `"filaments"` (default) or `"off"`: whether beam filaments are relaxed by their
     /// own Newton solves after every global update (nonlinear elimination).
     pub relaxation: Option<Spanned<String>>,
+    /// `"near-convergence"` (default) or `"off"`: whether full Newton solves with the last
+    /// factorisation once the residual is close to the tolerance (chord steps).
+    pub chord: Option<Spanned<String>>,
     /// Viscous stabilisation: `"off"` (default), `"on-difficulty"` or `"always"`.
     pub stabilization: Option<Spanned<String>>,
     /// Fraction of the first increment's strain energy the calibrated viscosity dissipates

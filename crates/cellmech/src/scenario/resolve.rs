@@ -554,6 +554,22 @@ fn resolve_step(
             }
         },
     };
+    control.convergence.chord_near_convergence = match &s.chord {
+        // Fewer factorisations to the same criteria (docs/performance.md, "Chord steps near
+        // convergence").
+        None => true,
+        Some(word) => match word.get_ref().as_str() {
+            "near-convergence" => true,
+            "off" => false,
+            other => {
+                return Err(ctx.invalid(
+                    Some(word.span()),
+                    &key("chord"),
+                    format!("expected \"near-convergence\" or \"off\"; found \"{other}\""),
+                ))
+            }
+        },
+    };
     let c = &control;
     let tol = &c.convergence;
     if !(tol.residual_tolerance > 0.0

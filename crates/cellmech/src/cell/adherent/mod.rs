@@ -108,6 +108,9 @@ pub struct AdherentCell {
     /// Whether every step relaxes the beam filaments by their own Newton solves
     /// (`solver.relaxation`, nonlinear elimination).
     pub relaxation: bool,
+    /// Whether full Newton solves with the last factorisation near convergence
+    /// (`solver.chord`).
+    pub chord: bool,
     /// Where the mesh is refined for an indenter (`None`: the base mesh). The AFM protocol
     /// sets it to its site.
     pub site: Option<IndentationSite>,
@@ -133,6 +136,7 @@ impl AdherentCell {
             stabilization: s::stabilization_from_values(values),
             iteration: s::iteration_from_values(values),
             relaxation: s::relaxation_from_values(values),
+            chord: s::chord_from_values(values),
             site: None,
         }
     }
@@ -145,6 +149,7 @@ impl AdherentCell {
         };
         control.convergence.method = self.iteration;
         control.convergence.relaxation = self.relaxation;
+        control.convergence.chord_near_convergence = self.chord;
         control
     }
 

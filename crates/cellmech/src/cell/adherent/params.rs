@@ -72,6 +72,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         shared::SOLVER_STABILIZATION,
         shared::SOLVER_ITERATION,
         shared::SOLVER_RELAXATION,
+        shared::SOLVER_CHORD,
         shared::INTERMEDIATE_YOUNGS_MODULUS,
         shared::INTERMEDIATE_DIAMETER,
         shared::INTERMEDIATE_SLACK,

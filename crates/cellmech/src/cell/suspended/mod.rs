@@ -539,6 +539,9 @@ pub struct SuspendedCell {
     /// Whether every step relaxes the beam filaments by their own Newton solves
     /// (`solver.relaxation`, nonlinear elimination).
     pub relaxation: bool,
+    /// Whether full Newton solves with the last factorisation near convergence
+    /// (`solver.chord`).
+    pub chord: bool,
 }
 
 impl Default for SuspendedCell {
@@ -560,6 +563,7 @@ impl SuspendedCell {
         };
         control.convergence.method = self.iteration;
         control.convergence.relaxation = self.relaxation;
+        control.convergence.chord_near_convergence = self.chord;
         control
     }
 
@@ -574,6 +578,7 @@ impl SuspendedCell {
             stabilization: params::stabilization_from_values(values),
             iteration: params::iteration_from_values(values),
             relaxation: params::relaxation_from_values(values),
+            chord: params::chord_from_values(values),
         }
     }
 

@@ -197,6 +197,8 @@ pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::C
 pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)");
 /// `solver.relaxation` (shared by the cell models).
 pub(crate) const SOLVER_RELAXATION: ParamDef = p("solver.relaxation", K::Choice(&["filaments", "off"]), D::Word("filaments"), ANY, "after every global Newton update, each beam filament's own DOFs (the interior nodes of a free MT, the rotations at its ends) are moved to their equilibrium by a local Newton solve with the rest held (nonlinear elimination); the same equilibrium in fewer global iterations, or off", "choice, measured ([performance](performance.md#nonlinear-elimination-of-the-free-filaments)): default tension 74 -> 41 factorisations, compression 258 -> 160, forces within 2e-9");
+/// `solver.chord` (shared by the cell models).
+pub(crate) const SOLVER_CHORD: ParamDef = p("solver.chord", K::Choice(&["near-convergence", "off"]), D::Word("near-convergence"), ANY, "full Newton near convergence (residual within 1000 times the tolerance, the last step having divided it at least 100-fold) solves with the last factorisation instead of a new one, while each such chord step divides the residual at least 10-fold; the same convergence criteria, or off (a factorisation at every iteration)", "choice, measured ([performance](performance.md#chord-steps-near-convergence)): default tension 41 -> 31 factorisations, compression 160 -> 124, forces within 3e-9");
 /// `intermediate.youngs_modulus` (shared by the cell models).
 pub(crate) const INTERMEDIATE_YOUNGS_MODULUS: ParamDef = p(
     "intermediate.youngs_modulus",
@@ -413,6 +415,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         SOLVER_STABILIZATION,
         SOLVER_ITERATION,
         SOLVER_RELAXATION,
+        SOLVER_CHORD,
         INTERMEDIATE_YOUNGS_MODULUS,
         INTERMEDIATE_DIAMETER,
         INTERMEDIATE_SLACK,
@@ -552,6 +555,12 @@ pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
         "bfgs" => IterationMethod::Bfgs { max_updates: 10 },
         _ => IterationMethod::Newton,
     }
+}
+
+/// Whether full Newton takes chord steps near convergence, from resolved values of
+/// [`SUSPENDED_CELL`].
+pub fn chord_from_values(v: &ParamValues) -> bool {
+    v.word("solver.chord") != "off"
 }
 
 /// Whether the filaments are relaxed (nonlinear elimination) in every step, from resolved
