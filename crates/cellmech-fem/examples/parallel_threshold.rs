@@ -43,6 +43,8 @@ fn main() {
         (12, 12, 12),
         (14, 14, 15),
         (17, 17, 17),
+        (21, 21, 21),
+        (24, 24, 24),
     ] {
         let m = hex_elasticity(nx, ny, nz, 1.0, 0.45);
         let n = m.pattern.n;

@@ -235,7 +235,7 @@ fn bad_tool_input_names_the_file_line_and_key() {
 }
 
 #[test]
-fn step_extrapolation_defaults_to_linear_and_a_misspelling_names_the_line_and_key() {
+fn step_extrapolation_and_chord_steps_have_defaults_and_a_misspelling_names_the_line_and_key() {
     use cellmech_fem::solve::Extrapolation;
     let s = parse(BASE, "base.toml", Path::new(".")).unwrap();
     assert_eq!(
@@ -250,6 +250,27 @@ fn step_extrapolation_defaults_to_linear_and_a_misspelling_names_the_line_and_ke
         e.contains("bad.toml:20: `step[0].extrapolation`")
             && e.contains("\"linear\" or \"none\"")
             && e.contains("quadratic"),
+        "{e}"
+    );
+    // Chord steps near convergence: on by default, "off" switches them off, a typo is
+    // named with the key and the line.
+    assert!(
+        parse(BASE, "base.toml", Path::new("."))
+            .unwrap()
+            .model
+            .steps[0]
+            .control
+            .convergence
+            .chord_near_convergence
+    );
+    let off = BASE.replace("[[step]]\n", "[[step]]\nchord = \"off\"\n");
+    let s = parse(&off, "off.toml", Path::new(".")).unwrap();
+    assert!(!s.model.steps[0].control.convergence.chord_near_convergence);
+    let e = error_of(&BASE.replace("[[step]]\n", "[[step]]\nchord = \"sometimes\"\n"));
+    assert!(
+        e.contains("bad.toml:20: `step[0].chord`")
+            && e.contains("\"near-convergence\" or \"off\"")
+            && e.contains("sometimes"),
         "{e}"
     );
 }

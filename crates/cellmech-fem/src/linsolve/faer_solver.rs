@@ -52,13 +52,15 @@ const LU_PROBE_TOLERANCE: f64 = 1e-6;
 
 /// Default of [`FaerSparseSolver::with_parallel_min_flops`]: numeric factorisations with fewer
 /// flops (`AnalysisInfo::factor_flops`) run sequentially even inside a pool of several
-/// threads. Infinite: on the project's 2-core machine faer's parallel supernodal
-/// factorisation was about 2x slower than the sequential one at every size measured (up to
-/// 16.5k DOFs, 4.8e9 flops), and it is not bitwise reproducible (differences of ~7e-16
-/// relative from about 6k DOFs). Measured with
+/// threads. 1e10: on the project's 2-core machine, idle, faer's parallel supernodal
+/// factorisation took 0.60x the sequential time at 1.7e10 flops (30k DOFs) and 0.69x at
+/// 3.7e10 (45k DOFs), but 0.86x at 4.8e9, 1.03x at 1.7e9 and more below (the default cell
+/// mesh's 10k DOFs stay sequential). Its solutions differ from the sequential ones by
+/// ~1e-15 relative, so curves above the threshold are not bitwise the same at 1 and 2
+/// threads (bounded in `tests/threads.rs`). Measured with
 /// `cargo run --release -p cellmech-fem --example parallel_threshold`
 /// (`docs/performance.md`, section "Threads").
-pub const DEFAULT_PARALLEL_MIN_FLOPS: f64 = f64::INFINITY;
+pub const DEFAULT_PARALLEL_MIN_FLOPS: f64 = 1e10;
 
 /// Everything `analyze` computes once per pattern, plus reusable numeric buffers.
 struct Analysis {
@@ -123,7 +125,7 @@ impl FaerSparseSolver {
     /// factorisation runs on at most `threads` threads of the rayon pool it is called in
     /// (`0`: all of them; `1`: always sequential), and sequentially when it has fewer flops
     /// than [`FaerSparseSolver::with_parallel_min_flops`] (default
-    /// [`DEFAULT_PARALLEL_MIN_FLOPS`]: always sequential, see there). Triangular solves
+    /// [`DEFAULT_PARALLEL_MIN_FLOPS`], see there). Triangular solves
     /// follow the same choice.
     /// Run it inside the pool (`ThreadPool::install`, as [`crate::solve::Problem`] does):
     /// called from outside, every parallel section goes through rayon's cross-thread latch.
