@@ -188,11 +188,16 @@ fn write_tangent(problem: &Problem, pattern: &SparsityPattern, path: &Path) -> R
 
 /// Whole analyses timed by `cellmech bench --analyses`: name, shipped example, and what it
 /// stands for.
-pub const ANALYSES: [(&str, &str, &str); 3] = [
+pub const ANALYSES: [(&str, &str, &str); 4] = [
     (
         "suspended-tension",
         "suspended-tension",
         "the default cell test: tension to 6.3 um",
+    ),
+    (
+        "suspended-tension-fine",
+        "suspended-tension",
+        "the same on the fine mesh (14 504 hex8; the coarse variant is the 448-element cell)",
     ),
     (
         "suspended-compression",
@@ -246,7 +251,7 @@ pub struct AnalysisBench {
 }
 
 /// Runs the analysis `name` of [`ANALYSES`] (with a 448-element cell or the example's own
-/// mesh when `coarse`) in a scratch directory under `dir` and measures it.
+/// mesh when `coarse`; an entry named `*-fine` on the cell's fine mesh otherwise) in a scratch directory under `dir` and measures it.
 pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBench, String> {
     let (_, example, _) = ANALYSES
         .iter()
@@ -261,6 +266,8 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
             1,
         );
         text = text.replacen("resolution = \"default\"", "# resolution", 1);
+    } else if name.ends_with("-fine") {
+        text = text.replacen("resolution = \"default\"", "resolution = \"fine\"", 1);
     }
     text = text.replace("vtk_every = 5", "vtk_every = 0");
     let analysis = crate::scenario::parse(&text, &format!("<bench: {name}>"), Path::new("."))
