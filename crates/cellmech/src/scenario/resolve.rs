@@ -479,6 +479,28 @@ fn node_set(
     }
 }
 
+/// A switch written as a word: absent or `on` (the default) is true, `"off"` false, anything
+/// else an error naming the key.
+fn on_or_off(
+    ctx: &Ctx,
+    word: Option<&Spanned<String>>,
+    on: &str,
+    key: &str,
+) -> Result<bool, ScenarioError> {
+    let Some(word) = word else {
+        return Ok(true);
+    };
+    match word.get_ref().as_str() {
+        w if w == on => Ok(true),
+        "off" => Ok(false),
+        other => Err(ctx.invalid(
+            Some(word.span()),
+            key,
+            format!("expected \"{on}\" or \"off\"; found \"{other}\""),
+        )),
+    }
+}
+
 fn resolve_step(
     ctx: &Ctx,
     i: usize,
@@ -538,38 +560,14 @@ fn resolve_step(
             }
         },
     };
-    control.convergence.relaxation = match &s.relaxation {
-        // Free filaments in fewer global iterations, to the same equilibrium
-        // (docs/performance.md, "Nonlinear elimination of the free filaments").
-        None => true,
-        Some(word) => match word.get_ref().as_str() {
-            "filaments" => true,
-            "off" => false,
-            other => {
-                return Err(ctx.invalid(
-                    Some(word.span()),
-                    &key("relaxation"),
-                    format!("expected \"filaments\" or \"off\"; found \"{other}\""),
-                ))
-            }
-        },
-    };
-    control.convergence.chord_near_convergence = match &s.chord {
-        // Fewer factorisations to the same criteria (docs/performance.md, "Chord steps near
-        // convergence").
-        None => true,
-        Some(word) => match word.get_ref().as_str() {
-            "near-convergence" => true,
-            "off" => false,
-            other => {
-                return Err(ctx.invalid(
-                    Some(word.span()),
-                    &key("chord"),
-                    format!("expected \"near-convergence\" or \"off\"; found \"{other}\""),
-                ))
-            }
-        },
-    };
+    // Free filaments in fewer global iterations, to the same equilibrium
+    // (docs/performance.md, "Nonlinear elimination of the free filaments").
+    control.convergence.relaxation =
+        on_or_off(ctx, s.relaxation.as_ref(), "filaments", &key("relaxation"))?;
+    // Fewer factorisations to the same criteria (docs/performance.md, "Chord steps near
+    // convergence").
+    control.convergence.chord_near_convergence =
+        on_or_off(ctx, s.chord.as_ref(), "near-convergence", &key("chord"))?;
     let c = &control;
     let tol = &c.convergence;
     if !(tol.residual_tolerance > 0.0
