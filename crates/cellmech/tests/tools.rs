@@ -273,4 +273,24 @@ fn step_extrapolation_and_chord_steps_have_defaults_and_a_misspelling_names_the_
             && e.contains("sometimes"),
         "{e}"
     );
+    // The iteration: full Newton unless "bfgs" is asked for.
+    use cellmech_fem::solve::IterationMethod;
+    let method = |text: &str| {
+        parse(text, "m.toml", Path::new(".")).unwrap().model.steps[0]
+            .control
+            .convergence
+            .method
+    };
+    assert_eq!(method(BASE), IterationMethod::Newton);
+    assert_eq!(
+        method(&BASE.replace("[[step]]\n", "[[step]]\niteration = \"bfgs\"\n")),
+        IterationMethod::Bfgs { max_updates: 10 }
+    );
+    let e = error_of(&BASE.replace("[[step]]\n", "[[step]]\niteration = \"lbfgs\"\n"));
+    assert!(
+        e.contains("bad.toml:20: `step[0].iteration`")
+            && e.contains("\"newton\" or \"bfgs\"")
+            && e.contains("lbfgs"),
+        "{e}"
+    );
 }

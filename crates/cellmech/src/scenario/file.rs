@@ -150,6 +150,10 @@ pub struct StepSection {
     /// `"near-convergence"` (default) or `"off"`: whether full Newton solves with the last
     /// factorisation once the residual is close to the tolerance (chord steps).
     pub chord: Option<Spanned<String>>,
+    /// `"newton"` (default: a new tangent at every iteration, chord steps near convergence)
+    /// or `"bfgs"` (quasi-Newton: the increment's factorisation kept and corrected by up to
+    /// 10 rank-two updates, as FEBio's default).
+    pub iteration: Option<Spanned<String>>,
     /// Viscous stabilisation: `"off"` (default), `"on-difficulty"` or `"always"`.
     pub stabilization: Option<Spanned<String>>,
     /// Fraction of the first increment's strain energy the calibrated viscosity dissipates

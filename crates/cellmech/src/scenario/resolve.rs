@@ -6,7 +6,9 @@ use cellmech_fem::element::hex8::Hex8Formulation;
 use cellmech_fem::material::NeoHookean;
 use cellmech_fem::mesh::generate::{box_mesh, sphere_mesh, SphereMeshSpec};
 use cellmech_fem::mesh::{ElementKind, Mesh};
-use cellmech_fem::solve::{Activation, Convergence, Extrapolation, Stabilization, StepControl};
+use cellmech_fem::solve::{
+    Activation, Convergence, Extrapolation, IterationMethod, Stabilization, StepControl,
+};
 use toml::Spanned;
 
 use super::context::Ctx;
@@ -568,6 +570,20 @@ fn resolve_step(
     // convergence").
     control.convergence.chord_near_convergence =
         on_or_off(ctx, s.chord.as_ref(), "near-convergence", &key("chord"))?;
+    // Full Newton unless asked (docs/performance.md, "Quasi-Newton (BFGS)").
+    if let Some(word) = &s.iteration {
+        control.convergence.method = match word.get_ref().as_str() {
+            "newton" => IterationMethod::Newton,
+            "bfgs" => IterationMethod::Bfgs { max_updates: 10 },
+            other => {
+                return Err(ctx.invalid(
+                    Some(word.span()),
+                    &key("iteration"),
+                    format!("expected \"newton\" or \"bfgs\"; found \"{other}\""),
+                ))
+            }
+        };
+    }
     let c = &control;
     let tol = &c.convergence;
     if !(tol.residual_tolerance > 0.0
