@@ -53,8 +53,9 @@ pub enum Command {
     ///
     /// With --analyses, runs whole analyses (suspended-tension, suspended-tension-fine,
     /// suspended-compression, plates) and prints wall time, Newton iterations,
-    /// factorisations and the time split per analysis and per step; --save FILE stores the figures as a baseline and
-    /// --baseline FILE prints each figure's ratio to it, so a regression is visible.
+    /// factorisations and the time split per analysis and per step; --save FILE stores
+    /// the figures as a baseline and --baseline FILE prints each figure's ratio to it, so
+    /// a regression is visible.
     ///
     /// Examples:
     ///   cellmech bench --analyses                       # all four (the fine mesh: ~70 s)

@@ -251,7 +251,8 @@ pub struct AnalysisBench {
 }
 
 /// Runs the analysis `name` of [`ANALYSES`] (with a 448-element cell or the example's own
-/// mesh when `coarse`; an entry named `*-fine` on the cell's fine mesh otherwise) in a scratch directory under `dir` and measures it.
+/// mesh when `coarse`; an entry named `*-fine` on the cell's fine mesh otherwise) in a
+/// scratch directory under `dir` and measures it.
 pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBench, String> {
     let (_, example, _) = ANALYSES
         .iter()

@@ -235,7 +235,7 @@ fn bad_tool_input_names_the_file_line_and_key() {
 }
 
 #[test]
-fn step_extrapolation_and_chord_steps_have_defaults_and_a_misspelling_names_the_line_and_key() {
+fn step_solver_keys_have_defaults_and_a_misspelling_names_the_line_and_key() {
     use cellmech_fem::solve::Extrapolation;
     let s = parse(BASE, "base.toml", Path::new(".")).unwrap();
     assert_eq!(
@@ -252,41 +252,30 @@ fn step_extrapolation_and_chord_steps_have_defaults_and_a_misspelling_names_the_
             && e.contains("quadratic"),
         "{e}"
     );
-    // Chord steps near convergence: on by default, "off" switches them off, a typo is
-    // named with the key and the line.
-    assert!(
-        parse(BASE, "base.toml", Path::new("."))
-            .unwrap()
-            .model
-            .steps[0]
+    // Chord steps near convergence: on by default, "off" switches them off; the iteration:
+    // full Newton unless "bfgs" is asked for. A typo is named with the key and the line.
+    use cellmech_fem::solve::{Convergence, IterationMethod};
+    let with = |line: &str| BASE.replace("[[step]]\n", &format!("[[step]]\n{line}\n"));
+    let convergence = |text: &str| -> Convergence {
+        parse(text, "c.toml", Path::new(".")).unwrap().model.steps[0]
             .control
             .convergence
-            .chord_near_convergence
-    );
-    let off = BASE.replace("[[step]]\n", "[[step]]\nchord = \"off\"\n");
-    let s = parse(&off, "off.toml", Path::new(".")).unwrap();
-    assert!(!s.model.steps[0].control.convergence.chord_near_convergence);
-    let e = error_of(&BASE.replace("[[step]]\n", "[[step]]\nchord = \"sometimes\"\n"));
+    };
+    assert!(convergence(BASE).chord_near_convergence);
+    assert!(!convergence(&with("chord = \"off\"")).chord_near_convergence);
+    let e = error_of(&with("chord = \"sometimes\""));
     assert!(
         e.contains("bad.toml:20: `step[0].chord`")
             && e.contains("\"near-convergence\" or \"off\"")
             && e.contains("sometimes"),
         "{e}"
     );
-    // The iteration: full Newton unless "bfgs" is asked for.
-    use cellmech_fem::solve::IterationMethod;
-    let method = |text: &str| {
-        parse(text, "m.toml", Path::new(".")).unwrap().model.steps[0]
-            .control
-            .convergence
-            .method
-    };
-    assert_eq!(method(BASE), IterationMethod::Newton);
+    assert_eq!(convergence(BASE).method, IterationMethod::Newton);
     assert_eq!(
-        method(&BASE.replace("[[step]]\n", "[[step]]\niteration = \"bfgs\"\n")),
+        convergence(&with("iteration = \"bfgs\"")).method,
         IterationMethod::Bfgs { max_updates: 10 }
     );
-    let e = error_of(&BASE.replace("[[step]]\n", "[[step]]\niteration = \"lbfgs\"\n"));
+    let e = error_of(&with("iteration = \"lbfgs\""));
     assert!(
         e.contains("bad.toml:20: `step[0].iteration`")
             && e.contains("\"newton\" or \"bfgs\"")

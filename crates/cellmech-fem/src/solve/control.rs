@@ -66,6 +66,14 @@ pub enum IterationMethod {
     },
 }
 
+impl IterationMethod {
+    /// BFGS with FEBio's default of 10 updates before a reform, as the scenario keys and the
+    /// cell models' `solver.iteration = "bfgs"` choose it.
+    pub const fn bfgs() -> Self {
+        IterationMethod::Bfgs { max_updates: 10 }
+    }
+}
+
 impl Default for Convergence {
     fn default() -> Self {
         Convergence {

@@ -574,7 +574,7 @@ fn resolve_step(
     if let Some(word) = &s.iteration {
         control.convergence.method = match word.get_ref().as_str() {
             "newton" => IterationMethod::Newton,
-            "bfgs" => IterationMethod::Bfgs { max_updates: 10 },
+            "bfgs" => IterationMethod::bfgs(),
             other => {
                 return Err(ctx.invalid(
                     Some(word.span()),

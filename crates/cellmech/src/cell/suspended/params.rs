@@ -552,7 +552,7 @@ pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
 /// The iteration method of every step from resolved values of [`SUSPENDED_CELL`].
 pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
     match v.word("solver.iteration") {
-        "bfgs" => IterationMethod::Bfgs { max_updates: 10 },
+        "bfgs" => IterationMethod::bfgs(),
         _ => IterationMethod::Newton,
     }
 }
