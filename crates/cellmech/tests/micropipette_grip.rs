@@ -249,3 +249,68 @@ fn grip_radius_beyond_the_cell_is_rejected_naming_the_key() {
     assert!(e.contains("grip_radius"), "{e}");
     assert!(e.contains("below the cell radius"), "{e}");
 }
+
+/// With the FA pattern turned so that the test axis passes through two opposite pentagon
+/// centres (`fa_orientation = "pentagon-on-axis"`), no FA lies in a grip, and the default
+/// cell stretches to ~100 % elongation in equilibrium: no viscous stabilisation. (With an FA on the axis, inside the grip, the MT from that FA is pulled taut
+/// into a rope through the free centrosome and the stretch stops near 30–45 %: docs,
+/// "Tension to ~100 %".) Default mesh: the coarse mesh has no surface ring the grip can
+/// use once FAs sit on it (a clear error, tested below).
+#[test]
+fn default_cell_with_no_fa_in_the_grips_stretches_to_100_percent_in_equilibrium() {
+    let cell = "fa_orientation = \"pentagon-on-axis\"\n";
+    let s = scenario(cell, "grip = \"cap\"\nelongation = \"32 um\"", "").unwrap();
+    let mesh = &s.model.mesh;
+    let grip_angle = (GRIP / R).asin();
+    for &fa in &mesh.node_sets["focal_adhesions"] {
+        let p = mesh.nodes[fa];
+        let polar = axis_distance(p).atan2(p[0].abs());
+        // The pentagon vertices lie 31.7° from the axis; snapping moves them by less than
+        // half an element (about 5° here), far from the 14.4° grip.
+        assert!(
+            polar > grip_angle + 10f64.to_radians(),
+            "FA node {fa} at {:.1}°",
+            polar.to_degrees()
+        );
+        for set in ["cap_minus", "cap_plus"] {
+            assert!(!mesh.node_sets[set].contains(&fa), "FA {fa} in {set}");
+        }
+    }
+    let (summary, _) = run_case("pentagon-100", &s);
+    for step in &summary.steps {
+        // Automatic cutbacks may occur (one, measured: a singular trial tangent near
+        // 30 µm); viscous forces may not.
+        assert_eq!(step.stabilized_increments, 0, "{}: {step:?}", step.name);
+        assert!(step.cutbacks <= 2, "{}: {step:?}", step.name);
+    }
+    let r = summary.protocol.unwrap();
+    let last = r.last.unwrap();
+    assert!((last.displacement_um - 32.0).abs() < 1e-9);
+    let f_moving = summary.final_values["moving_cap_fx_nN"];
+    let f_fixed = summary.final_values["fixed_cap_fx_nN"];
+    assert!((f_moving + f_fixed).abs() < 1e-6 * f_moving);
+    // The MTs stay far from a rope: a few nN at most (with an FA in the grip they reached
+    // hundreds of nN before the stretch stopped).
+    let mt_max = summary.final_values["microtubule_axial_force_max_nN"];
+    assert!(mt_max < 20.0, "{mt_max}");
+    // Normalised stiffness F / (πD²/4) / (elongation / D), kPa = nN/µm²: measured
+    // 2026-12-04 (docs/suspended-cell-validation.md, "Tension to ~100 %").
+    let d = 2.0 * R;
+    let stiffness = last.force_nn / (std::f64::consts::PI * d * d / 4.0) / (32.0 / d);
+    eprintln!("force at 32 um: {} nN, {stiffness} kPa", last.force_nn);
+    assert!(
+        (last.force_nn / 412.8528043875264 - 1.0).abs() < 1e-6,
+        "{}",
+        last.force_nn
+    );
+}
+
+#[test]
+fn fas_on_the_coarse_grip_ring_are_a_clear_error() {
+    let cell = format!("{COARSE}fa_orientation = \"pentagon-on-axis\"\n");
+    let e = scenario(&cell, "grip = \"cap\"", "")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("grip.toml") && e.contains("grip_radius"), "{e}");
+    assert!(e.contains("no ring of surface nodes"), "{e}");
+}

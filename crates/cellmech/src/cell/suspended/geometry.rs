@@ -42,6 +42,11 @@ pub enum FaOrientation {
         /// Number of random rotations tried before the local refinement.
         trials: usize,
     },
+    /// The test axis (x) through the centres of two opposite pentagonal faces, so that no
+    /// FA lies within 31.7° of it (a 4 µm grip on the default cell spans 14.4°): the
+    /// pattern has five-fold symmetry about the axis. Of the spins about x (every 0.5° over
+    /// one 72° period) the one with the smallest largest snap distance is kept.
+    PentagonOnAxis,
 }
 
 /// The 30 icosidodecahedron vertices on the unit sphere, in the fixed order used
@@ -197,14 +202,15 @@ pub(crate) fn choose_orientation(
     orientation: FaOrientation,
     seed: u64,
 ) -> M3 {
-    let trials = match orientation {
-        FaOrientation::Symmetric => return IDENTITY,
-        FaOrientation::Optimized { trials } => trials,
-    };
     let score = |m: &M3| {
         surface
             .relative_snap(&fa_sites(m, radius))
             .unwrap_or(f64::INFINITY)
+    };
+    let trials = match orientation {
+        FaOrientation::Symmetric => return IDENTITY,
+        FaOrientation::PentagonOnAxis => return pentagon_on_axis(score),
+        FaOrientation::Optimized { trials } => trials,
     };
     let mut rng = SplitMix64::new(seed);
     let mut best = (IDENTITY, score(&IDENTITY));
@@ -236,6 +242,35 @@ pub(crate) fn choose_orientation(
         }
     }
     best.0
+}
+
+/// Spin steps of [`FaOrientation::PentagonOnAxis`] over its 72° period.
+const PENTAGON_SPINS: usize = 144;
+
+/// The rotation taking the pentagon-centre direction `(0, φ, 1)` onto `+x`, followed by
+/// the spin about `x` (of [`PENTAGON_SPINS`] over 72°) with the smallest `score`.
+fn pentagon_on_axis(score: impl Fn(&M3) -> f64) -> M3 {
+    let u = normalize([0.0, GOLDEN_RATIO, 1.0]);
+    let x = [1.0, 0.0, 0.0];
+    let axis = normalize(cross(u, x));
+    let half = 0.5 * angle(u, x);
+    let (s, c) = half.sin_cos();
+    let onto = quaternion_matrix([c, s * axis[0], s * axis[1], s * axis[2]]);
+    let period = 72f64.to_radians();
+    (0..PENTAGON_SPINS)
+        .map(|k| {
+            let (s, c) = (0.5 * period * k as f64 / PENTAGON_SPINS as f64).sin_cos();
+            compose(&quaternion_matrix([c, s, 0.0, 0.0]), &onto)
+        })
+        .map(|m| (score(&m), m))
+        .fold((f64::INFINITY, IDENTITY), |best, next| {
+            if next.0 < best.0 {
+                next
+            } else {
+                best
+            }
+        })
+        .1
 }
 
 /// What snapping the FA sites onto the surface did.
@@ -357,6 +392,44 @@ fn check_touched_elements(
 mod tests {
     use super::*;
     use crate::cell::vec3::{dot, norm};
+
+    #[test]
+    fn pentagon_on_axis_puts_five_fas_at_equal_distance_around_each_pole_and_none_nearer() {
+        // Any spin about x keeps the property: score by the spin's own angle only.
+        let m = pentagon_on_axis(|_| 1.0);
+        let sites = fa_sites(&m, 1.0);
+        for pole in [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]] {
+            let mut angles: Vec<f64> = sites.iter().map(|&s| angle(s, pole)).collect();
+            angles.sort_by(f64::total_cmp);
+            // A pentagon of unit edge has circumradius 0.8507; the vertices lie at
+            // circumradius φ: asin(0.8507 / φ) = 31.72°.
+            let expected = (0.850_650_808_352_039_9 / GOLDEN_RATIO).asin();
+            for a in &angles[..5] {
+                assert!((a - expected).abs() < 1e-12, "{angles:?}");
+            }
+            assert!(angles[5] > expected + 0.1, "{angles:?}");
+            assert!((expected.to_degrees() - 31.717).abs() < 1e-3);
+        }
+        // The spin chosen scores (nearly: 0.5° grid) as well as the best of a fine sweep.
+        let score = |m: &M3| apply(m, [0.0, 1.0, 0.0])[2];
+        let spun = pentagon_on_axis(score);
+        let sweep: Vec<f64> = (0..2000)
+            .map(|k| {
+                let half = 0.5 * 72f64.to_radians() * k as f64 / 2000.0;
+                score(&compose(
+                    &quaternion_matrix([half.cos(), half.sin(), 0.0, 0.0]),
+                    &m,
+                ))
+            })
+            .collect();
+        let best = sweep.iter().copied().fold(f64::INFINITY, f64::min);
+        let worst = sweep.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        assert!(
+            worst - best > 0.5,
+            "the sweep must discriminate: {best}..{worst}"
+        );
+        assert!(score(&spun) - best < 0.01, "{} vs {best}", score(&spun));
+    }
 
     #[test]
     fn icosidodecahedron_has_30_unit_vertices_60_equal_edges_degree_4() {

@@ -317,10 +317,10 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         ),
         p(
             "fa_orientation",
-            K::Choice(&["symmetric", "optimized"]),
+            K::Choice(&["symmetric", "optimized", "pentagon-on-axis"]),
             D::Word("symmetric"),
             ANY,
-            "FA pattern: on the ±x, ±y, ±z poles, or rotated to fit the mesh",
+            "FA pattern: on the ±x, ±y, ±z poles (an FA on the test axis, inside the grip), rotated to fit the mesh, or with the test axis x through two opposite pentagon centres (no FA within 31.7° of the axis)",
             "choice ([geometry](suspended-cell-geometry.md))",
         ),
         p(
@@ -472,6 +472,7 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             "optimized" => FaOrientation::Optimized {
                 trials: v.count("orientation_trials"),
             },
+            "pentagon-on-axis" => FaOrientation::PentagonOnAxis,
             _ => FaOrientation::Symmetric,
         },
         mt_elements: v.count("microtubules.elements"),
