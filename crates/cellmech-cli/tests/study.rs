@@ -254,6 +254,24 @@ fn the_built_in_studies_list_and_expand() {
 }
 
 #[test]
+fn the_large_tension_study_stretches_to_31_5_um_with_no_fa_in_the_grips() {
+    let o = cellmech(&["study", "suspended-tension-large", "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let cases: Vec<&str> = text.lines().filter(|l| !l.starts_with(' ')).collect();
+    assert_eq!(cases.len(), 12, "{text}");
+    assert!(
+        cases.contains(&"mt-embedded-prestressed.no-actin-microtubule"),
+        "{text}"
+    );
+    assert!(text.contains("protocol.elongation = \"31.5 um\""), "{text}");
+    assert!(
+        text.contains("cell.fa_orientation = \"pentagon-on-axis\""),
+        "{text}"
+    );
+}
+
+#[test]
 fn the_adherent_afm_studies_stop_at_1_um_with_their_named_subsets_and_components() {
     let o = cellmech(&["study", "--list"]);
     let list = String::from_utf8_lossy(&o.stdout);

@@ -55,6 +55,11 @@ pub const BUILTIN: &[BuiltinStudy] = &[
         text: include_str!("../../../../studies/suspended-tension-coupling.toml"),
     },
     BuiltinStudy {
+        name: "suspended-tension-large",
+        summary: "tension to 31.5 um (~100 %), no FA in the grips: free, centrosome-tied and embedded MTs x AF and MT removed (12 cases)",
+        text: include_str!("../../../../studies/suspended-tension-large.toml"),
+    },
+    BuiltinStudy {
         name: "suspended-compression-coupling",
         summary: "compression to 50 %: free and embedded (prestressed-cell) MTs x the 8 disruption models (16 cases)",
         text: include_str!("../../../../studies/suspended-compression-coupling.toml"),
