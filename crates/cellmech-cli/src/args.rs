@@ -52,13 +52,14 @@ pub enum Command {
     /// (sphere_<size>.mtx) for `benches/cholmod_compare.py`, which times CHOLMOD on it.
     ///
     /// With --analyses, runs whole analyses (suspended-tension, suspended-tension-fine,
-    /// suspended-compression, plates) and prints wall time, Newton iterations,
+    /// suspended-compression, plates, and sphere-50 / sphere-50-bfgs: the FEBio
+    /// side-by-side case, 2816 hex8 to 50 % in 50 increments) and prints wall time, Newton iterations,
     /// factorisations and the time split per analysis and per step; --save FILE stores
     /// the figures as a baseline and --baseline FILE prints each figure's ratio to it, so
     /// a regression is visible.
     ///
     /// Examples:
-    ///   cellmech bench --analyses                       # all four (the fine mesh: ~70 s)
+    ///   cellmech bench --analyses                       # all six (the fine mesh: ~70 s)
     ///   cellmech bench --analyses plates --coarse       # the short CI variant
     ///   cellmech bench --analyses --save base.json      # later: --baseline base.json
     #[command(verbatim_doc_comment)]

@@ -188,7 +188,7 @@ fn write_tangent(problem: &Problem, pattern: &SparsityPattern, path: &Path) -> R
 
 /// Whole analyses timed by `cellmech bench --analyses`: name, shipped example, and what it
 /// stands for.
-pub const ANALYSES: [(&str, &str, &str); 4] = [
+pub const ANALYSES: [(&str, &str, &str); 6] = [
     (
         "suspended-tension",
         "suspended-tension",
@@ -209,7 +209,51 @@ pub const ANALYSES: [(&str, &str, &str); 4] = [
         "plate-compression",
         "neo-Hookean sphere between frictionless plates",
     ),
+    (
+        "sphere-50",
+        "plate-compression",
+        "the FEBio side-by-side case of issue 13: the plates' sphere on 2816 hex8, to 50 % in 50 equal increments, full Newton",
+    ),
+    (
+        "sphere-50-bfgs",
+        "plate-compression",
+        "the same with BFGS corrections (FEBio's default)",
+    ),
 ];
+
+/// The example's text for the `sphere-50*` entries: the plate-compression sphere on the
+/// mesh (core 8, 6 shell layers: 2816 hex8) and the stepping (50 equal increments to 50 %)
+/// of the FEBio run in issue 13; `coarse` keeps the example's mesh. Fails loudly if the
+/// example no longer has the lines it rewrites.
+fn sphere_50_text(example: &str, coarse: bool, bfgs: bool) -> Result<String, String> {
+    let mut text = example.to_string();
+    let mut swap = |from: &str, to: &str| {
+        if !text.contains(from) {
+            return Err(format!(
+                "plate-compression example has no `{from}` to rewrite"
+            ));
+        }
+        text = text.replacen(from, to, 1);
+        Ok(())
+    };
+    if !coarse {
+        swap("core_divisions = 6", "core_divisions = 8")?;
+        swap("shell_layers = 4", "shell_layers = 6")?;
+    }
+    swap("initial_increment = 0.05", "initial_increment = 0.02")?;
+    swap("max_increment = 0.1", "max_increment = 0.02")?;
+    swap(
+        "move = [\"0 um\", \"0 um\", \"-9.6792 um\"]",
+        "move = [\"0 um\", \"0 um\", \"-16.132 um\"]",
+    )?;
+    if bfgs {
+        swap(
+            "max_increment = 0.02",
+            "max_increment = 0.02\niteration = \"bfgs\"",
+        )?;
+    }
+    Ok(text)
+}
 
 /// The cost of one whole analysis.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
@@ -270,6 +314,9 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
     } else if name.ends_with("-fine") {
         text = text.replacen("resolution = \"default\"", "resolution = \"fine\"", 1);
     }
+    if name.starts_with("sphere-50") {
+        text = sphere_50_text(&text, coarse, name.ends_with("-bfgs"))?;
+    }
     text = text.replace("vtk_every = 5", "vtk_every = 0");
     let analysis = crate::scenario::parse(&text, &format!("<bench: {name}>"), Path::new("."))
         .map_err(|e| e.to_string())?;
@@ -322,4 +369,26 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
             .collect(),
         result,
     })
+}
+
+#[cfg(test)]
+mod sphere_50_tests {
+    use super::*;
+
+    #[test]
+    fn the_sphere_50_entries_are_the_febio_case_on_the_shipped_example() {
+        let example = crate::examples::find("plate-compression").expect("shipped");
+        for bfgs in [false, true] {
+            let text = sphere_50_text(example.text, false, bfgs).expect("rewrites");
+            let s = crate::scenario::parse(&text, "<sphere-50>", Path::new(".")).expect("parses");
+            // 8^3 + 6 * 8^2 * 6 hex8 (the issue's FEBio mesh had 2744: 14^3).
+            let hex8: usize = s.model.mesh.blocks.iter().map(|b| b.len()).sum();
+            assert_eq!(hex8, 2816);
+            assert!(text.contains("-16.132 um"), "50 % of D = 32.264 um");
+            assert_eq!(text.contains("iteration = \"bfgs\""), bfgs);
+        }
+        let coarse = sphere_50_text(example.text, true, false).expect("rewrites");
+        assert!(coarse.contains("core_divisions = 6"));
+        assert!(sphere_50_text("title = \"x\"", false, false).is_err());
+    }
 }
