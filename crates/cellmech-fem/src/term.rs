@@ -112,9 +112,15 @@ pub struct LoadState {
 pub enum Augmentation {
     /// Nothing changed: the converged state is final for this term.
     Settled,
-    /// Multipliers or the active set changed; Newton must continue. The message says how
-    /// far from settled (e.g. the largest penetration) for logs.
+    /// The active set changed (and perhaps multipliers): the tangent changed; Newton must
+    /// continue with a new factorisation. The message says how far from settled (e.g. the
+    /// largest penetration) for logs.
     Updated(String),
+    /// Only multipliers changed, on the same active set: the tangent is the same function
+    /// of the state (exactly for bonded and flat frictionless contact; a curved tool's
+    /// tangent has a multiplier-weighted curvature term), so Newton may continue with the
+    /// factorisation it has ([`crate::solve::Convergence::chord_near_convergence`]).
+    Multipliers(String),
 }
 
 /// Per-element results of one term, as cells for a viewer.

@@ -233,8 +233,11 @@ fn contact_grip_still_gives_the_force_it_gave_before() {
     // round-off, and the bonded patch's contact rounds see states that differ by that much:
     // 41.7539955848052 nN (+1.0e-8: within the Newton tolerance, 1e-8 of a force scale
     // that includes the prestressed filaments' internal forces and exceeds this force).
+    // Since a contact round that changes only multipliers goes on with the factorisation
+    // Newton has (docs/performance.md, "Chord steps after multiplier updates"), the
+    // increments end at other states within the tolerance: 41.75399554833795 nN (-8.7e-10).
     assert!(
-        (last.force_nn / 41.7539955848052 - 1.0).abs() < 1e-12,
+        (last.force_nn / 41.75399554833795 - 1.0).abs() < 1e-12,
         "{}",
         last.force_nn
     );

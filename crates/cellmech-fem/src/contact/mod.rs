@@ -737,11 +737,16 @@ impl ElementSet for RigidContact {
                 None => {}
             }
         }
-        Augmentation::Updated(format!(
+        let message = format!(
             "{changed} contact points changed status, largest violation {violation:.3e} um \
              (tolerance {:.3e} um)",
             self.tolerance
-        ))
+        );
+        if changed == 0 {
+            Augmentation::Multipliers(message)
+        } else {
+            Augmentation::Updated(message)
+        }
     }
 
     fn on_commit(&mut self, u: &[f64], dof_map: &DofMap) {

@@ -95,6 +95,73 @@ fn frictionless_plate_pushes_spring_node_with_penetration_below_tolerance() {
 }
 
 #[test]
+fn augmentations_that_keep_the_active_set_reuse_the_factorisation() {
+    // The same push with and without chord steps: each multiplier update on the unchanged
+    // active set costs a solve with the factorisation Newton has instead of a new one
+    // (the tangent does not depend on the multipliers of a flat frictionless plate).
+    let run = |chord: bool| {
+        let mut p = spring_and_tool(ContactKind::Frictionless, vec![[0.0, 0.0, 0.3]]);
+        let mut step = Step::new("push");
+        step.prescribed = fixed_top_and_lateral();
+        step.control.convergence.chord_near_convergence = chord;
+        p.run_step(&step, &mut crate::solve::NullObserver).unwrap();
+        let t = p.timings();
+        let force = value(&contact_term(&p), "plate_force_z_nN");
+        (p.u()[5], force, t.factorizations, t.chord_steps)
+    };
+    let (u_fresh, f_fresh, fresh, none) = run(false);
+    let (u, f, factorizations, chords) = run(true);
+    assert_eq!(none, 0);
+    assert!(chords > 0, "no chord step after an augmentation");
+    assert!(
+        factorizations < fresh,
+        "{factorizations} factorisations with chord steps, {fresh} without"
+    );
+    for (x, force) in [(u_fresh, f_fresh), (u, f)] {
+        assert!((x - 0.3).abs() < 1e-8, "node displacement {x}");
+        assert!((force - 0.6).abs() < 1e-7, "force {force}");
+    }
+}
+
+/// Counts Newton iterations.
+struct IterationCounter(usize);
+
+impl crate::solve::Observer for IterationCounter {
+    fn on_iteration(&mut self, _report: &crate::solve::IterationReport) {
+        self.0 += 1;
+    }
+}
+
+#[test]
+fn bfgs_keeps_its_factorisation_through_multiplier_updates() {
+    // With penalty 50 against the spring's 2 the multiplier needs several Uzawa rounds to
+    // bring the penetration under 1e-9 um; only the start and the activation (a status
+    // change) may factorise.
+    let mut p = spring_and_tool(ContactKind::Frictionless, vec![[0.0, 0.0, 0.3]]);
+    let mut step = Step::new("push");
+    step.prescribed = fixed_top_and_lateral();
+    step.control.convergence.method = crate::solve::IterationMethod::bfgs();
+    step.control.initial_increment = 1.0;
+    step.control.max_increment = 1.0;
+    let mut counter = IterationCounter(0);
+    p.run_step(&step, &mut counter).unwrap();
+    let iterations = counter.0;
+    let out = contact_term(&p);
+    assert!(
+        (p.u()[5] - 0.3).abs() < 1e-8,
+        "node displacement {}",
+        p.u()[5]
+    );
+    assert!((value(&out, "plate_force_z_nN") - 0.6).abs() < 1e-7);
+    assert!(value(&out, "plate_max_penetration_um") <= 1e-9);
+    assert!(
+        iterations >= 5,
+        "{iterations} iterations: no multiplier rounds?"
+    );
+    assert!(p.timings().factorizations <= 2, "{:?}", p.timings());
+}
+
+#[test]
 fn frictionless_plate_lets_the_node_go_when_it_retracts() {
     let mut p = spring_and_tool(
         ContactKind::Frictionless,
@@ -269,9 +336,10 @@ fn a_restored_trial_state_is_the_saved_one_after_an_augmentation_changed_it() {
     ));
     contact.save_trial();
     let saved = contact.trial.clone();
+    // Same active set, larger multiplier: the tangent is unchanged.
     assert!(matches!(
         contact.augment(&u, &map),
-        Augmentation::Updated(_)
+        Augmentation::Multipliers(_)
     ));
     assert_ne!(
         contact.trial, saved,

@@ -33,9 +33,11 @@ pub struct Convergence {
     /// it at least [`CHORD_CONTRACTION`]-fold (the quadratic regime, where the chord
     /// step's error is about the product of the last two errors); chord steps go on while
     /// each divides the residual at least [`CHORD_CONTINUATION`]-fold, and full Newton
-    /// resumes as soon as one contracts less. No chord step right after the active set or
-    /// the multipliers changed. The convergence criteria are unchanged, so the accepted
-    /// states meet the same tolerances.
+    /// resumes as soon as one contracts less. Right after an augmentation that changed only
+    /// multipliers ([`crate::term::Augmentation::Multipliers`]: same active set, same
+    /// tangent) the first correction is a chord step too, whatever the residual; after one
+    /// that changed the active set, a new factorisation. The convergence criteria are
+    /// unchanged, so the accepted states meet the same tolerances.
     pub chord_near_convergence: bool,
 }
 

@@ -156,6 +156,9 @@ impl Problem {
         // the residual ratio before it.
         let mut chord = false;
         let mut previous_ratio = f64::INFINITY;
+        // Whether the last augmentation changed only multipliers (the tangent is the one
+        // factorised near convergence: a chord step may follow it at once).
+        let mut same_tangent = false;
         for iteration in 0.. {
             // Update and evaluate at the new point (tangent included for the next solve).
             let tolerance = conv.residual_tolerance * scale_floor.max(self.work.scale);
@@ -200,7 +203,8 @@ impl Problem {
             if converged {
                 match self.augment_terms() {
                     None => return Ok(iteration + 1),
-                    Some(message) => {
+                    Some((message, multipliers_only)) => {
+                        same_tangent = multipliers_only;
                         augmentations += 1;
                         if augmentations > conv.max_augmentations {
                             return Err(FailureReason::Unsettled(format!(
@@ -213,7 +217,9 @@ impl Problem {
                         }
                         self.evaluate(quasi_newton == 0)?;
                         round_start = iteration;
-                        reform = true;
+                        // Quasi-Newton keeps its factorisation and updates when only
+                        // multipliers changed (the tangent did not).
+                        reform = reform || !multipliers_only;
                     }
                 }
             } else if r0 > 0.0 && residual_ratio * scale > conv.divergence_ratio * r0 {
@@ -243,14 +249,21 @@ impl Problem {
                 } else {
                     residual_ratio
                 };
-                chord = self.chord_step_pays(
-                    conv,
-                    iteration,
-                    round_start,
-                    step_length,
-                    chord,
-                    previous_ratio,
-                );
+                chord = if augmentations > 0 && iteration == round_start {
+                    // Right after an augmentation that kept the active set, at the state
+                    // Newton converged to with its last factorisation: the same tangent,
+                    // whatever the multipliers' change did to the residual.
+                    same_tangent && conv.chord_near_convergence
+                } else {
+                    self.chord_step_pays(
+                        conv,
+                        iteration,
+                        round_start,
+                        step_length,
+                        chord,
+                        previous_ratio,
+                    )
+                };
                 previous_ratio = before;
                 if chord {
                     // The last factorisation, no update pairs: a chord step.
@@ -265,11 +278,14 @@ impl Problem {
             // Quasi-Newton: book the last step as an update, then reuse the factorisation
             // unless the updates ran out, the residual grew or curvature was lost.
             let residual_norm = norm_where(&self.work.rhs, &self.prescribed, false);
-            let curvature = self.book_update(step_length);
+            // Right after a multiplier-only augmentation the residual jumped without a step:
+            // nothing to book, and its growth is no sign of lost curvature.
+            let jumped = augmentations > 0 && iteration == round_start && !reform;
+            let curvature = jumped || self.book_update(step_length);
             if reform
                 || !curvature
                 || self.work.updates >= quasi_newton
-                || residual_norm > previous_norm
+                || (!jumped && residual_norm > previous_norm)
             {
                 self.assemble_full(false)?;
                 self.factorize_and_solve()?;
@@ -277,12 +293,13 @@ impl Problem {
                 reform = false;
             } else {
                 // A quasi-Newton correction far longer than the last step means the updates
-                // have lost the tangent (floppy modes): reform instead.
+                // have lost the tangent (floppy modes): reform instead. (Not after a
+                // multiplier jump: the last step was the converging round's last, tiny one.)
                 let last_step =
                     step_length * self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt();
                 self.quasi_newton_direction()?;
                 let length = self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt();
-                if !(length <= MAX_QUASI_NEWTON_GROWTH * last_step) {
+                if !jumped && !(length <= MAX_QUASI_NEWTON_GROWTH * last_step) {
                     self.assemble_full(false)?;
                     self.factorize_and_solve()?;
                     self.work.updates = 0;
@@ -431,14 +448,23 @@ impl Problem {
     }
 
     /// Lets every term augment; `None` when all are settled, else the first message.
-    fn augment_terms(&mut self) -> Option<String> {
+    /// Augments every term: `None` when all are settled, otherwise the first message and
+    /// whether only multipliers changed (no term changed its active set).
+    fn augment_terms(&mut self) -> Option<(String, bool)> {
         let mut message = None;
+        let mut multipliers_only = true;
         for term in &mut self.terms {
-            if let Augmentation::Updated(m) = term.augment(&self.u, &self.dof_map) {
-                message.get_or_insert(format!("{}: {m}", term.name()));
-            }
+            let m = match term.augment(&self.u, &self.dof_map) {
+                Augmentation::Settled => continue,
+                Augmentation::Updated(m) => {
+                    multipliers_only = false;
+                    m
+                }
+                Augmentation::Multipliers(m) => m,
+            };
+            message.get_or_insert(format!("{}: {m}", term.name()));
         }
-        message
+        message.map(|m| (m, multipliers_only))
     }
 
     /// Residual ratio, energy ratio and force scale at the current point.
