@@ -74,6 +74,20 @@ fn value(outputs: &[(String, f64)], name: &str) -> f64 {
         .unwrap()
 }
 
+/// The plate's 0.3 um push: the node moved 0.3 um (1e-8), the plate carries the spring's
+/// 0.6 nN (1e-7) and nothing penetrates beyond 1e-9 um. Returns the contact outputs.
+fn assert_pushed_0_3_um(p: &Problem) -> Vec<(String, f64)> {
+    let out = contact_term(p);
+    assert!(
+        (p.u()[5] - 0.3).abs() < 1e-8,
+        "node displacement {}",
+        p.u()[5]
+    );
+    assert!((value(&out, "plate_force_z_nN") - 0.6).abs() < 1e-7);
+    assert!(value(&out, "plate_max_penetration_um") <= 1e-9);
+    out
+}
+
 #[test]
 fn frictionless_plate_pushes_spring_node_with_penetration_below_tolerance() {
     // The plate rises by 0.3 um: the spring is compressed by 0.3 (force 0.6 nN).
@@ -81,13 +95,7 @@ fn frictionless_plate_pushes_spring_node_with_penetration_below_tolerance() {
     let mut step = Step::new("push");
     step.prescribed = fixed_top_and_lateral();
     p.run_step(&step, &mut crate::solve::NullObserver).unwrap();
-    let out = contact_term(&p);
-    assert!(
-        (p.u()[5] - 0.3).abs() < 1e-8,
-        "node displacement {}",
-        p.u()[5]
-    );
-    assert!((value(&out, "plate_force_z_nN") - 0.6).abs() < 1e-7);
+    let out = assert_pushed_0_3_um(&p);
     assert!((value(&out, "plate_force_along_motion_nN") - 0.6).abs() < 1e-7);
     assert!(value(&out, "plate_max_penetration_um") <= 1e-9);
     // The reaction at the spring's fixed end balances the plate force.
@@ -146,13 +154,7 @@ fn bfgs_keeps_its_factorisation_through_multiplier_updates() {
     let mut counter = IterationCounter(0);
     p.run_step(&step, &mut counter).unwrap();
     let iterations = counter.0;
-    let out = contact_term(&p);
-    assert!(
-        (p.u()[5] - 0.3).abs() < 1e-8,
-        "node displacement {}",
-        p.u()[5]
-    );
-    assert!((value(&out, "plate_force_z_nN") - 0.6).abs() < 1e-7);
+    let out = assert_pushed_0_3_um(&p);
     assert!(value(&out, "plate_max_penetration_um") <= 1e-9);
     assert!(
         iterations >= 5,
