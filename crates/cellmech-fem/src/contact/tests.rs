@@ -153,7 +153,7 @@ fn bfgs_keeps_its_factorisation_through_multiplier_updates() {
     let mut counter = IterationCounter(0);
     p.run_step(&step, &mut counter).unwrap();
     let iterations = counter.0;
-    let out = assert_pushed_0_3_um(&p);
+    assert_pushed_0_3_um(&p);
     assert!(
         iterations >= 5,
         "{iterations} iterations: no multiplier rounds?"
