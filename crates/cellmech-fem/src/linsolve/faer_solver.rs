@@ -47,6 +47,25 @@ pub struct AnalysisInfo {
     pub factor_flops: f64,
 }
 
+/// Mixed precision: a solve is refined until its last correction is at most this fraction
+/// of the solution (a Newton direction to 1e-6 relative is as good as an exact one: the
+/// chord steps of `solve::newton` use far older tangents).
+pub const MIXED_SOLVE_TOLERANCE: f64 = 1e-6;
+
+/// Mixed precision: most refinement steps of one solve before the solver falls back to a
+/// double-precision factorisation.
+const MIXED_MAX_REFINEMENTS: usize = 4;
+
+/// Mixed precision: a refinement step that shrinks the correction less than this factor
+/// means single precision does not resolve the matrix (condition number near 1/ε₃₂):
+/// double precision takes over.
+const MIXED_MIN_CONTRACTION: f64 = 4.0;
+
+/// Mixed precision: a single-precision Cholesky pivot below this fraction of its column's
+/// diagonal entry (six of single precision's seven digits cancelled in the elimination)
+/// resolves too little of the matrix: the factorisation is redone in double precision.
+const MIXED_PIVOT_FLOOR: f64 = 1e-6;
+
 /// Largest relative forward error of the LU probe solve for the LU to be accepted.
 const LU_PROBE_TOLERANCE: f64 = 1e-6;
 
@@ -82,11 +101,23 @@ struct Analysis {
     /// Copy of the last factorised values (for iterative refinement of pivoted solves).
     values: Vec<f64>,
     info: AnalysisInfo,
+    /// Mixed precision: the values and L in single precision, and the refinement's
+    /// buffers (empty unless mixed precision is on).
+    values32: Vec<f32>,
+    l_values32: Vec<f32>,
+    x32: Vec<f32>,
+    /// Mixed precision: 1/√|A_jj|, the symmetric scaling that gives the single-precision
+    /// matrix a unit diagonal.
+    scale: Vec<f64>,
+    refine_b: Vec<f64>,
+    refine_r: Vec<f64>,
 }
 
 /// Which numeric factor is currently valid.
 enum Numeric {
     Llt,
+    /// Cholesky in single precision, solves refined in double ([`FaerSparseSolver::with_mixed_precision`]).
+    Llt32,
     Lblt,
     Lu(Box<Lu<usize, f64>>),
 }
@@ -112,6 +143,27 @@ pub struct FaerSparseSolver {
     analysis: Option<Analysis>,
     numeric: Option<Numeric>,
     skip_cholesky: bool,
+    /// Factorise positive definite matrices in single precision first.
+    mixed: bool,
+    /// Single precision failed once on a positive definite matrix (pivot or refinement):
+    /// double precision from then on.
+    mixed_off: bool,
+    stats: MixedPrecisionStats,
+}
+
+/// What mixed precision did over a solver's life ([`FaerSparseSolver::with_mixed_precision`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MixedPrecisionStats {
+    /// Factorisations done in single precision.
+    pub single_factorizations: usize,
+    /// Refinement steps (each one double-precision product with A and one single-precision
+    /// solve).
+    pub refinement_steps: usize,
+    /// Times single precision did not resolve a positive definite matrix (a tiny pivot, or
+    /// a refinement that stalled) and double precision took over for the rest of the
+    /// solver's life. (An indefinite matrix goes to the pivoted factorisation as without
+    /// mixed precision, and the next positive definite one is tried in single precision.)
+    pub fallbacks: usize,
 }
 
 impl Default for FaerSparseSolver {
@@ -138,7 +190,28 @@ impl FaerSparseSolver {
             analysis: None,
             numeric: None,
             skip_cholesky: false,
+            mixed: false,
+            mixed_off: false,
+            stats: MixedPrecisionStats::default(),
         }
+    }
+
+    /// Mixed precision (off by default): a matrix that Cholesky can factorise is factorised
+    /// in single precision (about two thirds of the time, half the memory traffic of the
+    /// solves), and every solve is refined in double precision, `x += L⁻ᵀL⁻¹(b − A x)`, until
+    /// the last correction is at most [`MIXED_SOLVE_TOLERANCE`] of `x` (usually one step).
+    /// When single precision does not resolve the matrix (a Cholesky pivot below 1e-6 of its
+    /// column's diagonal entry, or a refinement step that shrinks the correction less than 4-fold),
+    /// the matrix is factorised again in double precision, and the solver stays in double
+    /// precision from then on. See `docs/linear-solver.md`, "Mixed precision".
+    pub fn with_mixed_precision(mut self, on: bool) -> Self {
+        self.mixed = on;
+        self
+    }
+
+    /// What mixed precision did so far.
+    pub fn mixed_precision_stats(&self) -> MixedPrecisionStats {
+        self.stats
     }
 
     /// Factorisations with fewer flops than this ([`AnalysisInfo::factor_flops`]) run
@@ -349,6 +422,9 @@ impl FaerSparseSolver {
                     .solve_in_place_with_conj(Conj::No, rhs_mat, par, &mut stack)
             }
             Some(Numeric::Lu(lu)) => lu.solve_in_place(rhs_mat),
+            Some(Numeric::Llt32) => {
+                return Err(usage("raw_solve with a single-precision factor"));
+            }
         }
         Ok(())
     }
@@ -441,7 +517,14 @@ impl LinearSolver for FaerSparseSolver {
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default()),
             symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(Par::Seq, Spec::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+            symbolic.solve_in_place_scratch::<f64>(1, widest),
+            symbolic.factorize_numeric_llt_scratch::<f32>(widest, Spec::default()),
+            symbolic.factorize_numeric_llt_scratch::<f32>(Par::Seq, Spec::default()),
+            symbolic.solve_in_place_scratch::<f32>(1, Par::Seq),
+            symbolic.solve_in_place_scratch::<f32>(1, widest),
         ]);
+        let mixed_len = |len: usize| if self.mixed { len } else { 0 };
+        let len_val = symbolic.len_val();
         let mem = MemBuffer::try_new(req)
             .map_err(|_| usage("out of memory for the factorisation workspace"))?;
         let diag_pos = (0..n).map(|c| pattern.col_ptr[c]).collect();
@@ -459,6 +542,12 @@ impl LinearSolver for FaerSparseSolver {
             max_threads,
             values: Vec::new(),
             info,
+            values32: vec![0.0; mixed_len(pattern.nnz())],
+            l_values32: vec![0.0; mixed_len(len_val)],
+            x32: vec![0.0; mixed_len(n)],
+            scale: vec![0.0; mixed_len(n)],
+            refine_b: vec![0.0; mixed_len(n)],
+            refine_r: vec![0.0; mixed_len(n)],
         });
         Ok(())
     }
@@ -478,6 +567,231 @@ impl LinearSolver for FaerSparseSolver {
         a.values.clear();
         a.values.extend_from_slice(values);
         self.numeric = None;
+        if self.mixed && !self.mixed_off && !self.skip_cholesky {
+            match self.try_llt32(values) {
+                Ok(info) => {
+                    self.numeric = Some(Numeric::Llt32);
+                    self.stats.single_factorizations += 1;
+                    return Ok(info);
+                }
+                Err(_) => {
+                    let info = self.factorize_double(values)?;
+                    if info.method == FactorMethod::Cholesky {
+                        // Positive definite after all: single precision did not resolve it.
+                        self.fall_back_to_double();
+                    }
+                    return Ok(info);
+                }
+            }
+        }
+        self.factorize_double(values)
+    }
+
+    fn mixed_precision_stats(&self) -> Option<MixedPrecisionStats> {
+        Some(self.stats)
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
+        let a = self
+            .analysis
+            .as_ref()
+            .ok_or_else(|| usage("solve before analyze"))?;
+        let n = a.n;
+        if rhs.len() != n {
+            return Err(usage(&format!(
+                "solve: expected rhs of length {n}, found {}",
+                rhs.len()
+            )));
+        }
+        match self.numeric {
+            Some(Numeric::Llt) => return self.raw_solve(rhs),
+            Some(Numeric::Llt32) => {
+                if self.refined_single_solve(rhs)? {
+                    return Ok(());
+                }
+                // Single precision stalled: double precision from the saved right-hand side.
+                self.fall_back_to_double();
+                let a = self
+                    .analysis
+                    .as_mut()
+                    .ok_or_else(|| usage("not analysed"))?;
+                rhs.copy_from_slice(&a.refine_b);
+                let values = std::mem::take(&mut a.values);
+                let factored = self.factorize_double(&values);
+                if let Some(a) = self.analysis.as_mut() {
+                    a.values = values;
+                }
+                factored?;
+                return self.solve_in_place(rhs);
+            }
+            _ => {}
+        }
+        // Pivoted factorisations: up to two steps of iterative refinement, x += A⁻¹ (b − A x).
+        let b = rhs.to_vec();
+        self.raw_solve(rhs)?;
+        let mut r = vec![0.0; n];
+        for _ in 0..2 {
+            let a = self
+                .analysis
+                .as_ref()
+                .ok_or_else(|| usage("solve before analyze"))?;
+            a.pattern.sym_mul(&a.values, rhs, &mut r);
+            r.iter_mut().zip(&b).for_each(|(ri, bi)| *ri = bi - *ri);
+            if norm(&r) <= 1e-15 * norm(&b) {
+                break;
+            }
+            self.raw_solve(&mut r)?;
+            rhs.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
+        }
+        Ok(())
+    }
+}
+
+impl FaerSparseSolver {
+    /// Single precision did not resolve the matrix: double precision from now on.
+    fn fall_back_to_double(&mut self) {
+        self.mixed_off = true;
+        self.stats.fallbacks += 1;
+        if let Some(a) = self.analysis.as_mut() {
+            // The buffers are not needed any more.
+            a.values32 = Vec::new();
+            a.l_values32 = Vec::new();
+        }
+    }
+
+    /// LLᵀ in single precision, with the pivot check of [`Self::try_llt`] floored at
+    /// [`MIXED_PIVOT_FLOOR`].
+    fn try_llt32(&mut self, values: &[f64]) -> Result<FactorInfo, String> {
+        let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
+        let a = self.analysis.as_mut().ok_or("not analysed")?;
+        for c in 0..a.n {
+            let d = values[a.diag_pos[c]];
+            if !(d > 0.0) {
+                return Err(format!("diagonal entry {d:e} not positive"));
+            }
+            a.scale[c] = 1.0 / d.sqrt();
+        }
+        for c in 0..a.n {
+            for k in a.pattern.col_ptr[c]..a.pattern.col_ptr[c + 1] {
+                let scaled = values[k] * a.scale[c] * a.scale[a.pattern.row_idx[k]];
+                a.values32[k] = scaled as f32;
+            }
+        }
+        let structure = SymbolicSparseColMatRef::new_checked(
+            a.n,
+            a.n,
+            &a.pattern.col_ptr,
+            None,
+            &a.pattern.row_idx,
+        );
+        let mat = SparseColMatRef::new(structure, &a.values32);
+        let mut stack = MemStack::new(&mut a.mem);
+        a.symbolic
+            .factorize_numeric_llt(
+                &mut a.l_values32,
+                mat,
+                Side::Lower,
+                Default::default(),
+                par,
+                &mut stack,
+                Spec::default(),
+            )
+            .map_err(|e| format!("single-precision Cholesky: {e:?}"))?;
+        let sym = supernodal(&a.symbolic)?;
+        let l = SupernodalLltRef::new(sym, &a.l_values32);
+        let floor = self.pivot_tolerance.max(MIXED_PIVOT_FLOOR);
+        for s in 0..sym.n_supernodes() {
+            let block = l.supernode(s).val();
+            let begin = sym.supernode_begin()[s];
+            for k in 0..block.ncols() {
+                // The pivot against its own column's diagonal: the share of the column's
+                // stiffness left after the elimination (cancellation of that many digits).
+                let pivot = f64::from(block[(k, k)]).powi(2);
+                let diagonal = 1.0; // the scaled matrix's
+                let _ = begin;
+                if !(pivot > floor * diagonal) {
+                    return Err(format!(
+                        "single-precision pivot {pivot:e} (its diagonal {diagonal:e})"
+                    ));
+                }
+            }
+        }
+        Ok(FactorInfo {
+            method: FactorMethod::Cholesky,
+            negative_pivots: Some(0),
+        })
+    }
+
+    /// Solves with the single-precision factor and refines in double precision until the
+    /// last correction is at most [`MIXED_SOLVE_TOLERANCE`] of the solution. False (with
+    /// `rhs` garbage, the right-hand side kept in `refine_b`) when a step stalls or the
+    /// steps run out.
+    fn refined_single_solve(&mut self, rhs: &mut [f64]) -> Result<bool, LinSolveError> {
+        let par = self.factor_par(
+            self.analysis
+                .as_ref()
+                .ok_or_else(|| usage("not analysed"))?,
+        );
+        let a = self
+            .analysis
+            .as_mut()
+            .ok_or_else(|| usage("not analysed"))?;
+        let n = a.n;
+        a.refine_b.copy_from_slice(rhs);
+        let single_solve = |a: &mut Analysis, v: &[f64]| {
+            for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
+                *x = (b * d) as f32;
+            }
+            let mut stack = MemStack::new(&mut a.mem);
+            LltRef::new(&a.symbolic, &a.l_values32).solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut a.x32, n, 1),
+                par,
+                &mut stack,
+            );
+            for (x, &d) in a.x32.iter_mut().zip(&a.scale) {
+                *x = (f64::from(*x) * d) as f32;
+            }
+        };
+        single_solve(a, rhs);
+        for (x, &y) in rhs.iter_mut().zip(&a.x32) {
+            *x = f64::from(y);
+        }
+        let mut last = f64::INFINITY;
+        for _ in 0..MIXED_MAX_REFINEMENTS {
+            a.pattern.sym_mul(&a.values, rhs, &mut a.refine_r);
+            for (r, &b) in a.refine_r.iter_mut().zip(&a.refine_b) {
+                *r = b - *r;
+            }
+            let r = std::mem::take(&mut a.refine_r);
+            single_solve(a, &r);
+            a.refine_r = r;
+            self.stats.refinement_steps += 1;
+            let mut correction = 0.0;
+            let mut size = 0.0;
+            for (x, &d) in rhs.iter_mut().zip(&a.x32) {
+                let d = f64::from(d);
+                *x += d;
+                correction += d * d;
+                size += *x * *x;
+            }
+            let correction = correction.sqrt();
+            if !correction.is_finite() {
+                return Ok(false);
+            }
+            if correction <= MIXED_SOLVE_TOLERANCE * size.sqrt() {
+                return Ok(true);
+            }
+            if correction * MIXED_MIN_CONTRACTION > last {
+                return Ok(false);
+            }
+            last = correction;
+        }
+        Ok(false)
+    }
+
+    /// LLᵀ, then Bunch-Kaufman LDLᵀ, then LU, in double precision.
+    fn factorize_double(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError> {
         let mut failures = Vec::new();
         if !self.skip_cholesky {
             match self.try_llt(values) {
@@ -506,41 +820,6 @@ impl LinearSolver for FaerSparseSolver {
                 Err(LinSolveError::Singular(failures.join("; ")))
             }
         }
-    }
-
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        let a = self
-            .analysis
-            .as_ref()
-            .ok_or_else(|| usage("solve before analyze"))?;
-        let n = a.n;
-        if rhs.len() != n {
-            return Err(usage(&format!(
-                "solve: expected rhs of length {n}, found {}",
-                rhs.len()
-            )));
-        }
-        if matches!(self.numeric, Some(Numeric::Llt)) {
-            return self.raw_solve(rhs);
-        }
-        // Pivoted factorisations: up to two steps of iterative refinement, x += A⁻¹ (b − A x).
-        let b = rhs.to_vec();
-        self.raw_solve(rhs)?;
-        let mut r = vec![0.0; n];
-        for _ in 0..2 {
-            let a = self
-                .analysis
-                .as_ref()
-                .ok_or_else(|| usage("solve before analyze"))?;
-            a.pattern.sym_mul(&a.values, rhs, &mut r);
-            r.iter_mut().zip(&b).for_each(|(ri, bi)| *ri = bi - *ri);
-            if norm(&r) <= 1e-15 * norm(&b) {
-                break;
-            }
-            self.raw_solve(&mut r)?;
-            rhs.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
-        }
-        Ok(())
     }
 }
 

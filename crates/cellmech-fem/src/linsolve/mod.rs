@@ -13,7 +13,10 @@ pub mod test_matrices;
 #[cfg(test)]
 mod tests;
 pub use dense::DenseSolver;
-pub use faer_solver::{AnalysisInfo, FaerSparseSolver, DEFAULT_PARALLEL_MIN_FLOPS};
+pub use faer_solver::{
+    AnalysisInfo, FaerSparseSolver, MixedPrecisionStats, DEFAULT_PARALLEL_MIN_FLOPS,
+    MIXED_SOLVE_TOLERANCE,
+};
 pub use ordering::FillOrdering;
 pub use pattern::SparsityPattern;
 
@@ -63,4 +66,8 @@ pub trait LinearSolver: Send {
     fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError>;
     /// Overwrites `rhs` with the solution of the last factorised system.
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError>;
+    /// What mixed precision did, for a solver that has it.
+    fn mixed_precision_stats(&self) -> Option<MixedPrecisionStats> {
+        None
+    }
 }

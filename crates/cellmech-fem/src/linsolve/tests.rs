@@ -321,3 +321,71 @@ fn nested_dissection_fills_less_than_amd_on_a_3d_grid() {
         fill[1]
     );
 }
+
+fn relative_distance(x: &[f64], y: &[f64]) -> f64 {
+    let d: f64 = x.iter().zip(y).map(|(a, b)| (a - b).powi(2)).sum();
+    let s: f64 = y.iter().map(|b| b * b).sum();
+    (d / s).sqrt()
+}
+
+fn double_and_mixed(m: &TestMatrix) -> (Vec<f64>, Vec<f64>, FactorInfo, MixedPrecisionStats) {
+    let mut double = FaerSparseSolver::new(1);
+    double.analyze(&m.pattern).expect("analyze");
+    let (_, _, x64) = solve(&mut double, m);
+    let mut mixed = FaerSparseSolver::new(1).with_mixed_precision(true);
+    mixed.analyze(&m.pattern).expect("analyze");
+    let (info, _, x) = solve(&mut mixed, m);
+    (x64, x, info, mixed.mixed_precision_stats())
+}
+
+#[test]
+fn mixed_precision_refines_a_single_precision_solve_to_the_tolerance() {
+    // Nearly incompressible (K/G = 5000): a single-precision solve alone is off by ~1e-3.
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.4999);
+    let (x64, x, info, stats) = double_and_mixed(&m);
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    assert_eq!(stats.single_factorizations, 1, "{stats:?}");
+    assert_eq!(stats.fallbacks, 0, "{stats:?}");
+    // The first correction was above the tolerance (so the refinement was needed), and the
+    // refined solution is the double-precision one to within it.
+    assert!(stats.refinement_steps >= 2, "{stats:?}");
+    let error = relative_distance(&x, &x64);
+    assert!(error <= MIXED_SOLVE_TOLERANCE, "error {error:e}");
+    assert!(error > 1e-14, "single precision left no trace: {error:e}");
+}
+
+#[test]
+fn mixed_precision_falls_back_to_double_where_single_precision_cannot_resolve_the_matrix() {
+    // K/G = 5e6: a condition number near 1/ε₃₂, where refinement stalls.
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.4999999);
+    let (x64, x, info, stats) = double_and_mixed(&m);
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    assert_eq!(stats.fallbacks, 1, "{stats:?}");
+    let error = relative_distance(&x, &x64);
+    assert!(
+        error <= 1e-12,
+        "the fallback solves in double precision: {error:e}"
+    );
+}
+
+#[test]
+fn mixed_precision_on_an_indefinite_matrix_takes_the_pivoted_path() {
+    let m = shift_diagonal(&hex_elasticity(5, 5, 5, 1.0, 0.3), 0.5);
+    let mut mixed = FaerSparseSolver::new(1).with_mixed_precision(true);
+    mixed.analyze(&m.pattern).expect("analyze");
+    let (info, residual, _) = solve(&mut mixed, &m);
+    assert_eq!(info.method, FactorMethod::Ldlt);
+    assert!(info.negative_pivots.unwrap_or(0) > 0);
+    assert!(residual < 1e-10, "residual {residual:e}");
+    // Indefiniteness is no failure of single precision: once the pivoted factorisation
+    // has found a matrix positive definite again (the fallback policy), the next one is
+    // factorised in single precision.
+    assert_eq!(mixed.mixed_precision_stats().fallbacks, 0);
+    let spd = hex_elasticity(5, 5, 5, 1.0, 0.3);
+    let (info, _, _) = solve(&mut mixed, &spd);
+    assert_eq!(info.method, FactorMethod::Ldlt);
+    let (info, residual, _) = solve(&mut mixed, &spd);
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    assert!(residual < 1e-6, "residual {residual:e}");
+    assert_eq!(mixed.mixed_precision_stats().single_factorizations, 1);
+}

@@ -10,7 +10,7 @@ use crate::assembly::Assembler;
 use crate::constraint::condense::Condensation;
 use crate::constraint::LinearConstraints;
 use crate::dof::DofMap;
-use crate::linsolve::{FactorInfo, LinearSolver};
+use crate::linsolve::{FactorInfo, LinearSolver, MixedPrecisionStats};
 use crate::term::{LoadState, Term};
 
 /// Buffers reused by every Newton iteration (allocated once per problem).
@@ -59,6 +59,9 @@ pub struct Timings {
     /// The relaxation blocks' local solves (nonlinear elimination): count, iterations,
     /// undone solves and time.
     pub relaxation: RelaxationStats,
+    /// What the linear solver's mixed precision did (zeros when it is off:
+    /// [`crate::linsolve::FaerSparseSolver::with_mixed_precision`]).
+    pub mixed_precision: MixedPrecisionStats,
 }
 
 /// A nonlinear static problem.
@@ -294,6 +297,7 @@ impl Problem {
     pub fn timings(&self) -> Timings {
         Timings {
             relaxation: self.relaxation_stats(),
+            mixed_precision: self.solver.mixed_precision_stats().unwrap_or_default(),
             ..self.timings
         }
     }

@@ -271,7 +271,7 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         })
         .map(|(n, c)| dof_map.dof(n, c))
         .collect();
-    let solver = Box::new(FaerSparseSolver::default());
+    let solver = Box::new(FaerSparseSolver::default().with_mixed_precision(true));
     let mut problem = match constraints {
         Some(c) => Problem::with_constraints(dof_map, terms, c, solver)?,
         None => Problem::new(dof_map, terms, solver)?,
