@@ -159,6 +159,9 @@ pub struct MixedPrecisionStats {
     /// Refinement steps (each one double-precision product with A and one single-precision
     /// solve).
     pub refinement_steps: usize,
+    /// Solves left unrefined because the caller asked for an approximate direction
+    /// ([`LinearSolver::solve_approximately_in_place`]: quasi-Newton and chord steps).
+    pub unrefined_solves: usize,
     /// Times single precision did not resolve a positive definite matrix (a tiny pivot, or
     /// a refinement that stalled) and double precision took over for the rest of the
     /// solver's life. (An indefinite matrix goes to the pivoted factorisation as without
@@ -591,6 +594,34 @@ impl LinearSolver for FaerSparseSolver {
         Some(self.stats)
     }
 
+    fn solve_approximately_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
+        if !matches!(self.numeric, Some(Numeric::Llt32)) {
+            return self.solve_in_place(rhs);
+        }
+        let par = self.factor_par(
+            self.analysis
+                .as_ref()
+                .ok_or_else(|| usage("not analysed"))?,
+        );
+        let a = self
+            .analysis
+            .as_mut()
+            .ok_or_else(|| usage("not analysed"))?;
+        if rhs.len() != a.n {
+            return Err(usage(&format!(
+                "solve: expected rhs of length {}, found {}",
+                a.n,
+                rhs.len()
+            )));
+        }
+        single_precision_solve(a, rhs, par);
+        for (x, &y) in rhs.iter_mut().zip(&a.x32) {
+            *x = f64::from(y);
+        }
+        self.stats.unrefined_solves += 1;
+        Ok(())
+    }
+
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
         let a = self
             .analysis
@@ -736,24 +767,8 @@ impl FaerSparseSolver {
             .analysis
             .as_mut()
             .ok_or_else(|| usage("not analysed"))?;
-        let n = a.n;
         a.refine_b.copy_from_slice(rhs);
-        let single_solve = |a: &mut Analysis, v: &[f64]| {
-            for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
-                *x = (b * d) as f32;
-            }
-            let mut stack = MemStack::new(&mut a.mem);
-            LltRef::new(&a.symbolic, &a.l_values32).solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut a.x32, n, 1),
-                par,
-                &mut stack,
-            );
-            for (x, &d) in a.x32.iter_mut().zip(&a.scale) {
-                *x = (f64::from(*x) * d) as f32;
-            }
-        };
-        single_solve(a, rhs);
+        single_precision_solve(a, rhs, par);
         for (x, &y) in rhs.iter_mut().zip(&a.x32) {
             *x = f64::from(y);
         }
@@ -764,7 +779,7 @@ impl FaerSparseSolver {
                 *r = b - *r;
             }
             let r = std::mem::take(&mut a.refine_r);
-            single_solve(a, &r);
+            single_precision_solve(a, &r, par);
             a.refine_r = r;
             self.stats.refinement_steps += 1;
             let mut correction = 0.0;
@@ -820,6 +835,25 @@ impl FaerSparseSolver {
                 Err(LinSolveError::Singular(failures.join("; ")))
             }
         }
+    }
+}
+
+/// `a.x32` ← the single-precision factor's solution for `v` (scaled to and from the unit
+/// diagonal the factor was computed for).
+fn single_precision_solve(a: &mut Analysis, v: &[f64], par: Par) {
+    let n = a.n;
+    for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
+        *x = (b * d) as f32;
+    }
+    let mut stack = MemStack::new(&mut a.mem);
+    LltRef::new(&a.symbolic, &a.l_values32).solve_in_place_with_conj(
+        Conj::No,
+        MatMut::from_column_major_slice_mut(&mut a.x32, n, 1),
+        par,
+        &mut stack,
+    );
+    for (x, &d) in a.x32.iter_mut().zip(&a.scale) {
+        *x = (f64::from(*x) * d) as f32;
     }
 }
 

@@ -66,6 +66,13 @@ pub trait LinearSolver: Send {
     fn factorize(&mut self, values: &[f64]) -> Result<FactorInfo, LinSolveError>;
     /// Overwrites `rhs` with the solution of the last factorised system.
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError>;
+    /// Like [`LinearSolver::solve_in_place`], for a direction that is an approximation
+    /// anyway (a quasi-Newton or chord correction): the solver may return the solution of
+    /// its factor without refining it (single precision: an error of about the condition
+    /// number times 6e-8). The default is the full solve.
+    fn solve_approximately_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
+        self.solve_in_place(rhs)
+    }
     /// What mixed precision did, for a solver that has it.
     fn mixed_precision_stats(&self) -> Option<MixedPrecisionStats> {
         None

@@ -389,3 +389,34 @@ fn mixed_precision_on_an_indefinite_matrix_takes_the_pivoted_path() {
     assert!(residual < 1e-6, "residual {residual:e}");
     assert_eq!(mixed.mixed_precision_stats().single_factorizations, 1);
 }
+
+#[test]
+fn an_approximate_solve_skips_the_refinement_of_a_single_precision_factor_only() {
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.49);
+    let b = rhs(m.pattern.n);
+    let (x64, x, _, _) = double_and_mixed(&m);
+    let mut mixed = FaerSparseSolver::new(1).with_mixed_precision(true);
+    mixed.analyze(&m.pattern).expect("analyze");
+    mixed.factorize(&m.values).expect("factorize");
+    let mut approx = b.clone();
+    mixed
+        .solve_approximately_in_place(&mut approx)
+        .expect("solve");
+    let stats = mixed.mixed_precision_stats();
+    assert_eq!((stats.unrefined_solves, stats.refinement_steps), (1, 0));
+    // The factor's own error: far from round-off, far below what a direction tolerates.
+    let error = relative_distance(&approx, &x64);
+    assert!(
+        error > 100.0 * relative_distance(&x, &x64) && error < 1e-2,
+        "{error:e}"
+    );
+    // A double-precision factor solves in full.
+    let mut double = FaerSparseSolver::new(1);
+    double.analyze(&m.pattern).expect("analyze");
+    double.factorize(&m.values).expect("factorize");
+    let mut full = b.clone();
+    double
+        .solve_approximately_in_place(&mut full)
+        .expect("solve");
+    assert_eq!(full, x64);
+}

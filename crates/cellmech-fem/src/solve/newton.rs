@@ -403,8 +403,12 @@ impl Problem {
             }
         }
         let start = Instant::now();
+        // The direction is an approximation anyway: no refinement of a single-precision
+        // factor's solve (the first solve after each factorisation is refined and checks
+        // that single precision resolves the matrix).
         let (solver, delta) = (&mut self.solver, &mut self.work.delta);
-        self.pool.install(|| solver.solve_in_place(delta))?;
+        self.pool
+            .install(|| solver.solve_approximately_in_place(delta))?;
         self.timings.solve_s += start.elapsed().as_secs_f64();
         self.expand_correction();
         let work = &mut self.work;
