@@ -11,11 +11,38 @@ use std::time::Instant;
 use cellmech_fem::linsolve::test_matrices::hex_elasticity;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side, Spec};
+
+/// Sequential numeric LLᵀ in either precision.
+fn factorize<T: faer::traits::ComplexField>(
+    sym: &SymbolicCholesky<usize>,
+    l: &mut [T],
+    a: SparseColMatRef<'_, usize, T>,
+    mem: &mut MemBuffer,
+) {
+    sym.factorize_numeric_llt(
+        l,
+        a,
+        Side::Lower,
+        Default::default(),
+        Par::Seq,
+        MemStack::new(mem),
+        Spec::default(),
+    )
+    .expect("positive definite");
+}
+
+/// Wall time of `f`, s.
+fn time(f: impl FnOnce()) -> f64 {
+    let t = Instant::now();
+    f();
+    t.elapsed().as_secs_f64()
+}
 
 fn main() {
     let dims: Vec<usize> = std::env::args()
@@ -58,30 +85,8 @@ fn main() {
     let mut t64 = vec![];
     let mut t32 = vec![];
     for _ in 0..5 {
-        let t = Instant::now();
-        sym.factorize_numeric_llt(
-            &mut l64,
-            a64,
-            Side::Lower,
-            Default::default(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-            Spec::default(),
-        )
-        .unwrap();
-        t64.push(t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        sym.factorize_numeric_llt(
-            &mut l32,
-            a32,
-            Side::Lower,
-            Default::default(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-            Spec::default(),
-        )
-        .unwrap();
-        t32.push(t.elapsed().as_secs_f64());
+        t64.push(time(|| factorize(&sym, &mut l64, a64, &mut mem)));
+        t32.push(time(|| factorize(&sym, &mut l32, a32, &mut mem)));
     }
     t64.sort_by(|a, b| a.partial_cmp(b).unwrap());
     t32.sort_by(|a, b| a.partial_cmp(b).unwrap());
@@ -92,23 +97,23 @@ fn main() {
     let f64l = LltRef::new(&sym, &l64);
     let f32l = LltRef::new(&sym, &l32);
     let mut x = b.clone();
-    let t = Instant::now();
-    f64l.solve_in_place_with_conj(
-        Conj::No,
-        MatMut::from_column_major_slice_mut(&mut x, n, 1),
-        Par::Seq,
-        MemStack::new(&mut mem),
-    );
-    let ts64 = t.elapsed().as_secs_f64();
     let mut x32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
-    let t = Instant::now();
-    f32l.solve_in_place_with_conj(
-        Conj::No,
-        MatMut::from_column_major_slice_mut(&mut x32, n, 1),
-        Par::Seq,
-        MemStack::new(&mut mem),
-    );
-    let ts32 = t.elapsed().as_secs_f64();
+    let ts64 = time(|| {
+        f64l.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut x, n, 1),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        )
+    });
+    let ts32 = time(|| {
+        f32l.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut x32, n, 1),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        )
+    });
     // Error of the f32 solution relative to the f64 one, and after refinement steps.
     let matvec = |x: &[f64]| -> Vec<f64> {
         let mut y = vec![0.0; n];

@@ -273,19 +273,8 @@ impl FaerSparseSolver {
         let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         let mat = csc_ref(&a.pattern, values);
-        let mut stack = MemStack::new(&mut a.mem);
-        let result = a.symbolic.factorize_numeric_llt(
-            &mut a.l_values,
-            mat,
-            Side::Lower,
-            Default::default(),
-            par,
-            &mut stack,
-            Spec::default(),
-        );
-        if let Err(e) = result {
-            return Err(format!("Cholesky: {e:?}"));
-        }
+        numeric_llt(&a.symbolic, &mut a.l_values, mat, par, &mut a.mem)
+            .map_err(|e| format!("Cholesky: {e:?}"))?;
         let sym = supernodal(&a.symbolic)?;
         let l = SupernodalLltRef::new(sym, &a.l_values);
         for s in 0..sym.n_supernodes() {
@@ -399,11 +388,7 @@ impl FaerSparseSolver {
 
     /// One solve with the current factor, no refinement.
     fn raw_solve(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        let par = self.factor_par(
-            self.analysis
-                .as_ref()
-                .ok_or_else(|| usage("solve before analyze"))?,
-        );
+        let par = self.solve_par()?;
         let a = self
             .analysis
             .as_mut()
@@ -598,15 +583,7 @@ impl LinearSolver for FaerSparseSolver {
         if !matches!(self.numeric, Some(Numeric::Llt32)) {
             return self.solve_in_place(rhs);
         }
-        let par = self.factor_par(
-            self.analysis
-                .as_ref()
-                .ok_or_else(|| usage("not analysed"))?,
-        );
-        let a = self
-            .analysis
-            .as_mut()
-            .ok_or_else(|| usage("not analysed"))?;
+        let (par, a) = self.solve_setup()?;
         if rhs.len() != a.n {
             return Err(usage(&format!(
                 "solve: expected rhs of length {}, found {}",
@@ -679,6 +656,25 @@ impl LinearSolver for FaerSparseSolver {
 }
 
 impl FaerSparseSolver {
+    /// The parallelism of the current factor's solves and the analysis they use.
+    fn solve_setup(&mut self) -> Result<(Par, &mut Analysis), LinSolveError> {
+        let par = self.solve_par()?;
+        let a = self
+            .analysis
+            .as_mut()
+            .ok_or_else(|| usage("solve before analyze"))?;
+        Ok((par, a))
+    }
+
+    /// The parallelism of the current factor's solves.
+    fn solve_par(&self) -> Result<Par, LinSolveError> {
+        let a = self
+            .analysis
+            .as_ref()
+            .ok_or_else(|| usage("solve before analyze"))?;
+        Ok(self.factor_par(a))
+    }
+
     /// Single precision did not resolve the matrix: double precision from now on.
     fn fall_back_to_double(&mut self) {
         self.mixed_off = true;
@@ -716,17 +712,7 @@ impl FaerSparseSolver {
             &a.pattern.row_idx,
         );
         let mat = SparseColMatRef::new(structure, &a.values32);
-        let mut stack = MemStack::new(&mut a.mem);
-        a.symbolic
-            .factorize_numeric_llt(
-                &mut a.l_values32,
-                mat,
-                Side::Lower,
-                Default::default(),
-                par,
-                &mut stack,
-                Spec::default(),
-            )
+        numeric_llt(&a.symbolic, &mut a.l_values32, mat, par, &mut a.mem)
             .map_err(|e| format!("single-precision Cholesky: {e:?}"))?;
         let sym = supernodal(&a.symbolic)?;
         let l = SupernodalLltRef::new(sym, &a.l_values32);
@@ -758,51 +744,10 @@ impl FaerSparseSolver {
     /// `rhs` garbage, the right-hand side kept in `refine_b`) when a step stalls or the
     /// steps run out.
     fn refined_single_solve(&mut self, rhs: &mut [f64]) -> Result<bool, LinSolveError> {
-        let par = self.factor_par(
-            self.analysis
-                .as_ref()
-                .ok_or_else(|| usage("not analysed"))?,
-        );
-        let a = self
-            .analysis
-            .as_mut()
-            .ok_or_else(|| usage("not analysed"))?;
-        a.refine_b.copy_from_slice(rhs);
-        single_precision_solve(a, rhs, par);
-        for (x, &y) in rhs.iter_mut().zip(&a.x32) {
-            *x = f64::from(y);
-        }
-        let mut last = f64::INFINITY;
-        for _ in 0..MIXED_MAX_REFINEMENTS {
-            a.pattern.sym_mul(&a.values, rhs, &mut a.refine_r);
-            for (r, &b) in a.refine_r.iter_mut().zip(&a.refine_b) {
-                *r = b - *r;
-            }
-            let r = std::mem::take(&mut a.refine_r);
-            single_precision_solve(a, &r, par);
-            a.refine_r = r;
-            self.stats.refinement_steps += 1;
-            let mut correction = 0.0;
-            let mut size = 0.0;
-            for (x, &d) in rhs.iter_mut().zip(&a.x32) {
-                let d = f64::from(d);
-                *x += d;
-                correction += d * d;
-                size += *x * *x;
-            }
-            let correction = correction.sqrt();
-            if !correction.is_finite() {
-                return Ok(false);
-            }
-            if correction <= MIXED_SOLVE_TOLERANCE * size.sqrt() {
-                return Ok(true);
-            }
-            if correction * MIXED_MIN_CONTRACTION > last {
-                return Ok(false);
-            }
-            last = correction;
-        }
-        Ok(false)
+        let (par, a) = self.solve_setup()?;
+        let (steps, resolved) = refine_single_solve(a, rhs, par);
+        self.stats.refinement_steps += steps;
+        Ok(resolved)
     }
 
     /// LLᵀ, then Bunch-Kaufman LDLᵀ, then LU, in double precision.
@@ -836,6 +781,73 @@ impl FaerSparseSolver {
             }
         }
     }
+}
+
+/// The single-precision factor's solution for `rhs`, refined in double precision until the
+/// last correction is at most [`MIXED_SOLVE_TOLERANCE`] of it. Returns the refinement steps
+/// taken and whether it got there (false: a step stalled or the steps ran out; `rhs` is
+/// then garbage and the right-hand side is kept in `a.refine_b`).
+fn refine_single_solve(a: &mut Analysis, rhs: &mut [f64], par: Par) -> (usize, bool) {
+    a.refine_b.copy_from_slice(rhs);
+    let mut steps = 0;
+    single_precision_solve(a, rhs, par);
+    for (x, &y) in rhs.iter_mut().zip(&a.x32) {
+        *x = f64::from(y);
+    }
+    let mut last = f64::INFINITY;
+    for _ in 0..MIXED_MAX_REFINEMENTS {
+        a.pattern.sym_mul(&a.values, rhs, &mut a.refine_r);
+        for (r, &b) in a.refine_r.iter_mut().zip(&a.refine_b) {
+            *r = b - *r;
+        }
+        let r = std::mem::take(&mut a.refine_r);
+        single_precision_solve(a, &r, par);
+        a.refine_r = r;
+        steps += 1;
+        let mut correction = 0.0;
+        let mut size = 0.0;
+        for (x, &d) in rhs.iter_mut().zip(&a.x32) {
+            let d = f64::from(d);
+            *x += d;
+            correction += d * d;
+            size += *x * *x;
+        }
+        let correction = correction.sqrt();
+        if !correction.is_finite() {
+            return (steps, false);
+        }
+        if correction <= MIXED_SOLVE_TOLERANCE * size.sqrt() {
+            return (steps, true);
+        }
+        if correction * MIXED_MIN_CONTRACTION > last {
+            return (steps, false);
+        }
+        last = correction;
+    }
+    (steps, false)
+}
+
+/// faer's numeric supernodal LLᵀ of the lower triangle `mat` into `l_values`, in either
+/// precision, with the workspace `mem`.
+fn numeric_llt<T: faer::traits::ComplexField>(
+    symbolic: &SymbolicCholesky<usize>,
+    l_values: &mut [T],
+    mat: SparseColMatRef<'_, usize, T>,
+    par: Par,
+    mem: &mut MemBuffer,
+) -> Result<(), faer::linalg::solvers::LltError> {
+    let mut stack = MemStack::new(mem);
+    symbolic
+        .factorize_numeric_llt(
+            l_values,
+            mat,
+            Side::Lower,
+            Default::default(),
+            par,
+            &mut stack,
+            Spec::default(),
+        )
+        .map(|_| ())
 }
 
 /// `a.x32` ← the single-precision factor's solution for `v` (scaled to and from the unit
