@@ -158,23 +158,17 @@ fn stiffening_forces(site: IndentationSite, dir: &str) -> Vec<f64> {
     vec![f1, f2]
 }
 
+/// Both sites on the coarse cell: each curve stiffens like Hertz, and the receptor (an FA,
+/// where the load goes straight into the bundle) is stiffer than the apex, as published
+/// (measured 2026-12-04: 0.0579 / 0.1419 nN at the apex, 0.0775 / 0.1871 nN at the
+/// receptor at 0.2 / 0.4 µm: 1.32 times). About 5 minutes on 2 cores: at the receptor the
+/// prestress needs 23 increments (154 iterations) and the approach finds the FA plaque
+/// only after the tip has travelled 1.7 µm (the AB pulls the FA in).
 #[test]
-fn the_apex_gives_a_stiffening_hertz_like_curve() {
-    stiffening_forces(IndentationSite::Apex, "afm-apex");
-}
-
-/// Not in CI: at the receptor the coarse run's prestress needs 21 increments and the
-/// approach finds the FA plaque only after the tip has travelled 1.7 µm (the AB pulls the FA
-/// in); the run takes several minutes (docs/adherent-cell.md, "Limits").
-#[test]
-#[ignore]
-fn the_receptor_gives_a_stiffening_curve_that_differs_from_the_apex() {
-    let apex = stiffening_forces(IndentationSite::Apex, "afm-apex-2");
+fn both_sites_stiffen_and_the_receptor_is_stiffer_than_the_apex() {
+    let apex = stiffening_forces(IndentationSite::Apex, "afm-apex");
     let receptor = stiffening_forces(IndentationSite::Receptor, "afm-receptor");
     let ratio = receptor[1] / apex[1];
     eprintln!("receptor / apex at 0.4 µm: {ratio:.3}");
-    assert!(
-        (ratio - 1.0).abs() > 0.05,
-        "the sites differ: ratio {ratio}"
-    );
+    assert!(ratio > 1.1, "the receptor is stiffer: ratio {ratio}");
 }
