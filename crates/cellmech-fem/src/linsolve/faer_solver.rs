@@ -61,8 +61,8 @@ const MIXED_MAX_REFINEMENTS: usize = 4;
 /// double precision takes over.
 const MIXED_MIN_CONTRACTION: f64 = 4.0;
 
-/// Mixed precision: a single-precision Cholesky pivot below this fraction of its column's
-/// diagonal entry (six of single precision's seven digits cancelled in the elimination)
+/// Mixed precision: a single-precision Cholesky pivot `L_kk²` of the unit-diagonal scaled
+/// matrix below this (six of single precision's seven digits cancelled in the elimination)
 /// resolves too little of the matrix: the factorisation is redone in double precision.
 const MIXED_PIVOT_FLOOR: f64 = 1e-6;
 
@@ -116,7 +116,8 @@ struct Analysis {
 /// Which numeric factor is currently valid.
 enum Numeric {
     Llt,
-    /// Cholesky in single precision, solves refined in double ([`FaerSparseSolver::with_mixed_precision`]).
+    /// Cholesky in single precision, solves refined in double
+    /// ([`FaerSparseSolver::with_mixed_precision`]).
     Llt32,
     Lblt,
     Lu(Box<Lu<usize, f64>>),
@@ -199,13 +200,15 @@ impl FaerSparseSolver {
         }
     }
 
-    /// Mixed precision (off by default): a matrix that Cholesky can factorise is factorised
-    /// in single precision (about two thirds of the time, half the memory traffic of the
-    /// solves), and every solve is refined in double precision, `x += L⁻ᵀL⁻¹(b − A x)`, until
-    /// the last correction is at most [`MIXED_SOLVE_TOLERANCE`] of `x` (usually one step).
-    /// When single precision does not resolve the matrix (a Cholesky pivot below 1e-6 of its
-    /// column's diagonal entry, or a refinement step that shrinks the correction less than 4-fold),
-    /// the matrix is factorised again in double precision, and the solver stays in double
+    /// Mixed precision (off by default): a matrix that Cholesky can factorise is scaled to a
+    /// unit diagonal and factorised in single precision (about two thirds of the time, half
+    /// the memory traffic of the solves), and every solve is refined in double precision,
+    /// `x += L⁻ᵀL⁻¹(b − A x)`, until the last correction is at most
+    /// [`MIXED_SOLVE_TOLERANCE`] of `x` (usually one step);
+    /// [`LinearSolver::solve_approximately_in_place`] skips the refinement. When single
+    /// precision does not resolve the matrix (a pivot `L_kk²` below 1e-6 of the unit
+    /// diagonal, or a refinement step that shrinks the correction less than 4-fold), the
+    /// matrix is factorised again in double precision, and the solver stays in double
     /// precision from then on. See `docs/linear-solver.md`, "Mixed precision".
     pub fn with_mixed_precision(mut self, on: bool) -> Self {
         self.mixed = on;
@@ -686,8 +689,9 @@ impl FaerSparseSolver {
         }
     }
 
-    /// LLᵀ in single precision, with the pivot check of [`Self::try_llt`] floored at
-    /// [`MIXED_PIVOT_FLOOR`].
+    /// LLᵀ in single precision of the matrix scaled to a unit diagonal (`a.scale` =
+    /// 1/√A_jj); fails on a diagonal entry that is not positive or a pivot `L_kk²` below
+    /// [`MIXED_PIVOT_FLOOR`] (or the solver's pivot tolerance, if larger).
     fn try_llt32(&mut self, values: &[f64]) -> Result<FactorInfo, String> {
         let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
@@ -719,16 +723,13 @@ impl FaerSparseSolver {
         let floor = self.pivot_tolerance.max(MIXED_PIVOT_FLOOR);
         for s in 0..sym.n_supernodes() {
             let block = l.supernode(s).val();
-            let begin = sym.supernode_begin()[s];
             for k in 0..block.ncols() {
-                // The pivot against its own column's diagonal: the share of the column's
-                // stiffness left after the elimination (cancellation of that many digits).
+                // The scaled matrix has a unit diagonal, so the pivot is the share of its
+                // column's stiffness left after the elimination (that many digits cancelled).
                 let pivot = f64::from(block[(k, k)]).powi(2);
-                let diagonal = 1.0; // the scaled matrix's
-                let _ = begin;
-                if !(pivot > floor * diagonal) {
+                if !(pivot > floor) {
                     return Err(format!(
-                        "single-precision pivot {pivot:e} (its diagonal {diagonal:e})"
+                        "single-precision pivot {pivot:e} of a unit diagonal"
                     ));
                 }
             }

@@ -5,6 +5,7 @@
 //! path ([`knot_bracket`]).
 
 pub mod dual;
+pub mod eigen3;
 pub mod hyperdual;
 pub mod rotation;
 pub mod vec3;

@@ -4,6 +4,7 @@
 use super::{point_pressure, Hex8Formulation, Hex8Reference};
 use crate::element::KernelError;
 use crate::material::Hyperelastic;
+use crate::math::eigen3::max_symmetric_eigenvalue;
 use nalgebra::Matrix3;
 
 /// Element-level stress and strain measures.
@@ -44,7 +45,7 @@ pub fn hex8_response<M: Hyperelastic>(
             tau[(i, i)] += j * p;
         }
         tau_sum += tau * reference.weight(q);
-        let lam2 = b.symmetric_eigenvalues().max();
+        let lam2 = max_symmetric_eigenvalue(&b);
         max_log = max_log.max(0.5 * lam2.ln());
     }
     let s = tau_sum / v;
@@ -86,7 +87,7 @@ pub fn hex8_max_log_strain_between(
             .ok_or(KernelError::InvertedElement { qp: q, det_f: 0.0 })?;
         let f = fs[q] * inverse;
         let b = f * f.transpose();
-        max_log = max_log.max(0.5 * b.symmetric_eigenvalues().max().ln());
+        max_log = max_log.max(0.5 * max_symmetric_eigenvalue(&b).ln());
     }
     Ok(max_log)
 }
