@@ -176,6 +176,7 @@ fn suspended_cell_tension_protocol_runs() {
         monitor: Monitor::TermScalar("moving_force_x_nN".into()),
         target: 0.0,
         tolerance: 1e-3,
+        known_before_solving: false,
     });
     p.run_step(&s2, &mut NullObserver).unwrap();
     eprintln!("reference state: force {:.2e} nN", force(&p));

@@ -402,3 +402,45 @@ fn a_node_heading_onto_a_plate_at_rest_is_predicted_in_contact() {
     );
     assert!(plain[5] > 1, "{predicted:?} predicted, {plain:?} without");
 }
+
+#[test]
+fn an_approach_known_before_solving_rejects_overshoots_without_newton() {
+    // The plate starts 0.5 um below the node and may rise by 1 um; the step ends where its
+    // smallest gap (from the committed positions: linear in the travel) is 0. Rejecting
+    // the trials that overshoot before solving them gives the same stop for fewer
+    // factorisations.
+    let run = |known: bool| {
+        let mut p = spring_over_plate(
+            ContactKind::Frictionless,
+            0.5,
+            (50.0, 1e-9),
+            vec![[0.0, 0.0, 1.0]],
+        );
+        let mut step = Step::new("approach");
+        step.prescribed = fixed_top_and_lateral();
+        step.control.initial_increment = 0.4;
+        step.control.max_increment = 1.0;
+        step.stop = Some(crate::solve::StopCondition {
+            monitor: crate::solve::Monitor::TermScalar("plate_min_gap_um".into()),
+            target: 0.0,
+            tolerance: 1e-6,
+            known_before_solving: known,
+        });
+        p.run_step(&step, &mut crate::solve::NullObserver).unwrap();
+        let out = contact_term(&p);
+        (
+            value(&out, "plate_min_gap_um"),
+            value(&out, "plate_displacement_z_um"),
+            p.u()[5],
+            p.timings().factorizations,
+        )
+    };
+    let (gap_solved, travel_solved, u_solved, solved) = run(false);
+    let (gap, travel, u, known) = run(true);
+    for (g, z, x) in [(gap_solved, travel_solved, u_solved), (gap, travel, u)] {
+        assert!(g.abs() <= 1e-6, "gap {g}");
+        assert!((z - 0.5).abs() <= 1e-6, "plate travel {z}");
+        assert!(x.abs() <= 1e-6, "the node did not move: {x}");
+    }
+    assert!(known < solved, "{known} factorisations against {solved}");
+}

@@ -398,6 +398,24 @@ impl Problem {
             for term in &mut self.terms {
                 term.set_load_state(&load_state);
             }
+            if let (Some(stop), Some(g0), false) = (&step.stop, g_prev, across_jump) {
+                // A monitor known before solving: an overshooting trial is rejected without
+                // a Newton solve of it, and the next aims at the crossing (regula falsi).
+                match gap(self).filter(|_| stop.known_before_solving) {
+                    Some(g)
+                        if g.abs() > stop.tolerance
+                            && g.signum() != g0.signum()
+                            && overshoots < 60 =>
+                    {
+                        overshoots += 1;
+                        kept = 0;
+                        beyond = Some((t, g));
+                        dt = (t - time) * (g0 / (g0 - g)).clamp(0.02, 0.98);
+                        continue;
+                    }
+                    _ => {}
+                }
+            }
             if let Some(st) = &mut self.stabilizer {
                 st.start_increment(&saved_u, t - time);
             }

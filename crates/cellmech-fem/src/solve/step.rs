@@ -93,6 +93,11 @@ pub struct StopCondition {
     pub target: f64,
     /// Accepted distance from the target (same unit as the quantity, > 0).
     pub tolerance: f64,
+    /// The monitor's value at a trial time is known before the increment is solved (it
+    /// depends on the load program and the committed state only, e.g. a tool's smallest
+    /// gap measured from the committed positions): a trial that overshoots the target is
+    /// then rejected before Newton runs on it.
+    pub known_before_solving: bool,
 }
 
 impl Step {

@@ -302,6 +302,7 @@ fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
         monitor: Monitor::ReactionSum(vec![9]),
         target: 0.4,
         tolerance: 1e-9,
+        known_before_solving: false,
     });
     let mut rec = Recorder::default();
     p.run_step(&step, &mut rec).unwrap();
@@ -320,6 +321,7 @@ fn a_stop_condition_ends_the_step_where_the_reaction_reaches_its_target() {
         monitor: Monitor::ReactionSum(vec![9]),
         target: 5.0,
         tolerance: 1e-9,
+        known_before_solving: false,
     });
     let err = p.run_step(&step, &mut rec).unwrap_err();
     assert!(matches!(err, SolveError::TargetNotReached { .. }), "{err}");
@@ -402,6 +404,7 @@ fn a_stop_condition_across_a_jump_ends_at_the_first_state_beyond_it() {
         monitor: Monitor::TermScalar("stairs".into()),
         target: 5.0,
         tolerance: 0.1,
+        known_before_solving: false,
     });
     let mut rec = Recorder::default();
     p.run_step(&step, &mut rec).unwrap();

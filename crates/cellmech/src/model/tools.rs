@@ -238,6 +238,8 @@ pub fn stop_condition(spec: &StepSpec) -> Option<StopCondition> {
                 monitor: Monitor::TermScalar(scalar_name(&m.tool, ToolScalar::MinGap)),
                 target: 0.0,
                 tolerance,
+                // Measured from the committed positions: linear in the tool's travel.
+                known_before_solving: true,
             });
         }
         let target = m.until_force?;
@@ -256,6 +258,7 @@ pub fn stop_condition(spec: &StepSpec) -> Option<StopCondition> {
             monitor: Monitor::TermScalar(monitor),
             target: value,
             tolerance: target.tolerance,
+            known_before_solving: false,
         })
     })
 }
