@@ -627,12 +627,9 @@ impl LinearSolver for FaerSparseSolver {
                     .as_mut()
                     .ok_or_else(|| usage("not analysed"))?;
                 rhs.copy_from_slice(&a.refine_b);
-                let values = std::mem::take(&mut a.values);
-                let factored = self.factorize_double(&values);
-                if let Some(a) = self.analysis.as_mut() {
-                    a.values = values;
-                }
-                factored?;
+                // Once per solver: a copy of the values keeps the borrows simple.
+                let values = a.values.clone();
+                self.factorize_double(&values)?;
                 return self.solve_in_place(rhs);
             }
             _ => {}
@@ -708,14 +705,7 @@ impl FaerSparseSolver {
                 a.values32[k] = scaled as f32;
             }
         }
-        let structure = SymbolicSparseColMatRef::new_checked(
-            a.n,
-            a.n,
-            &a.pattern.col_ptr,
-            None,
-            &a.pattern.row_idx,
-        );
-        let mat = SparseColMatRef::new(structure, &a.values32);
+        let mat = csc_ref(&a.pattern, &a.values32);
         numeric_llt(&a.symbolic, &mut a.l_values32, mat, par, &mut a.mem)
             .map_err(|e| format!("single-precision Cholesky: {e:?}"))?;
         let sym = supernodal(&a.symbolic)?;
@@ -875,7 +865,7 @@ fn usage(msg: &str) -> LinSolveError {
 }
 
 /// faer view of the lower triangle (the pattern was validated in `analyze`).
-fn csc_ref<'a>(p: &'a SparsityPattern, values: &'a [f64]) -> SparseColMatRef<'a, usize, f64> {
+fn csc_ref<'a, T>(p: &'a SparsityPattern, values: &'a [T]) -> SparseColMatRef<'a, usize, T> {
     let structure = SymbolicSparseColMatRef::new_checked(p.n, p.n, &p.col_ptr, None, &p.row_idx);
     SparseColMatRef::new(structure, values)
 }

@@ -360,6 +360,12 @@ impl Problem {
         for term in &mut self.terms {
             term.set_load_state(&step_start);
         }
+        // The monitor at a trial (`g`, from `g0` at the last committed state) crossed the
+        // target beyond its tolerance: the trial overshot (at most 60 times per step).
+        let overshot = |g: Option<f64>, g0: f64, overshoots: usize| {
+            let (stop, g) = (step.stop.as_ref()?, g?);
+            (g.abs() > stop.tolerance && g.signum() != g0.signum() && overshoots < 60).then_some(g)
+        };
         let mut g_prev = gap(self);
         let mut beyond: Option<(f64, f64)> = None;
         let mut overshoots = 0;
@@ -398,22 +404,16 @@ impl Problem {
             for term in &mut self.terms {
                 term.set_load_state(&load_state);
             }
-            if let (Some(stop), Some(g0), false) = (&step.stop, g_prev, across_jump) {
+            let known = step.stop.as_ref().is_some_and(|s| s.known_before_solving);
+            if let (true, Some(g0), false) = (known, g_prev, across_jump) {
                 // A monitor known before solving: an overshooting trial is rejected without
-                // a Newton solve of it, and the next aims at the crossing (regula falsi).
-                match gap(self).filter(|_| stop.known_before_solving) {
-                    Some(g)
-                        if g.abs() > stop.tolerance
-                            && g.signum() != g0.signum()
-                            && overshoots < 60 =>
-                    {
-                        overshoots += 1;
-                        kept = 0;
-                        beyond = Some((t, g));
-                        dt = (t - time) * (g0 / (g0 - g)).clamp(0.02, 0.98);
-                        continue;
-                    }
-                    _ => {}
+                // a Newton solve of it, and the next aims at the crossing.
+                if let Some(g) = overshot(gap(self), g0, overshoots) {
+                    overshoots += 1;
+                    kept = 0;
+                    beyond = Some((t, g));
+                    dt = regula_falsi(t - time, g0, g);
+                    continue;
                 }
             }
             if let Some(st) = &mut self.stabilizer {
@@ -450,14 +450,9 @@ impl Problem {
                 term.predict(&self.u, &self.dof_map);
             }
             let outcome = self.newton_increment(&target_u, &target_f, guessed, control, observer);
-            if let (Ok(_), Some(stop), Some(g0)) = (&outcome, &step.stop, g_prev) {
-                let g = gap(self).unwrap_or(g0);
-                if !across_jump
-                    && g.abs() > stop.tolerance
-                    && g.signum() != g0.signum()
-                    && overshoots < 60
-                {
-                    // Overshot the target: reject, and aim at the crossing (regula falsi).
+            if let (Ok(_), Some(g0), false) = (&outcome, g_prev, across_jump) {
+                if let Some(g) = overshot(gap(self), g0, overshoots) {
+                    // Overshot the target: reject, and aim at the crossing.
                     overshoots += 1;
                     kept = 0;
                     for term in &mut self.terms {
@@ -466,7 +461,7 @@ impl Problem {
                     self.u = saved_u;
                     self.f_ext = saved_f;
                     beyond = Some((t, g));
-                    dt = (t - time) * (g0 / (g0 - g)).clamp(0.02, 0.98);
+                    dt = regula_falsi(t - time, g0, g);
                     continue;
                 }
             }
@@ -745,6 +740,12 @@ impl Problem {
 }
 
 /// The problem's thread pool: `threads` threads (0: rayon's default).
+/// The increment that reaches the crossing of a monitor that went from `g0` to `g` over
+/// `span` of step time, if it is linear (regula falsi), kept within 2–98 % of the span.
+fn regula_falsi(span: f64, g0: f64, g: f64) -> f64 {
+    span * (g0 / (g0 - g)).clamp(0.02, 0.98)
+}
+
 fn build_pool(threads: usize) -> Result<rayon::ThreadPool, SolveError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
