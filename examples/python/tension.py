@@ -15,7 +15,7 @@ import cellmech
 
 def main(out_dir: str = "cellmech-out/python-tension") -> None:
     cell = cellmech.SuspendedCell(
-        core_divisions=4,  # the coarse mesh: 448 hex8 instead of 2816
+        core_divisions=4,  # the coarse mesh: 448 hex8 instead of 6912
         shell_layers=2,
         outer_layers=2,
         cytoplasm__shear_modulus="0.17 kPa",  # the spec value, written out as an example

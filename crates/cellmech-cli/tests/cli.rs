@@ -262,7 +262,7 @@ fn build_writes_the_model_without_solving() {
     let o = cellmech(&["build", "--out", out.to_str().unwrap(), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["elements"], 2816);
+    assert_eq!(report["elements"], 6912);
     let model: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("model.json")).unwrap()).unwrap();
     let terms: Vec<(String, u64)> = serde_json::from_value(model["terms"].clone()).unwrap();

@@ -40,10 +40,13 @@ pub struct MeshResolution {
 }
 
 impl Default for MeshResolution {
-    /// The fast default: 8 divisions, 3 + 3 layers, 2816 hex8 (surface element ≈ 3.2 µm).
+    /// The default: 12 divisions, 3 + 3 layers, 6912 hex8 (surface element ≈ 2.1 µm): the
+    /// coarsest of the meshes measured whose compression forces at 10 / 30 / 50 % and
+    /// tensile force at 6.3 µm are within 5 % of the fine mesh's
+    /// (docs/suspended-cell-validation.md, "Mesh convergence").
     fn default() -> Self {
         Self {
-            core_divisions: 8,
+            core_divisions: 12,
             shell_layers: 3,
             outer_layers: 3,
             core_fraction: 0.5,
@@ -52,6 +55,18 @@ impl Default for MeshResolution {
 }
 
 impl MeshResolution {
+    /// The fast setting, the default until 2026-12-04: 8 divisions, 3 + 3 layers, 2816 hex8
+    /// (surface element ≈ 3.2 µm). Its compression force at 10 % is 7 % below the
+    /// converged value (the 30 and 50 % points and the tension are within 3 %).
+    pub fn fast() -> Self {
+        Self {
+            core_divisions: 8,
+            shell_layers: 3,
+            outer_layers: 3,
+            core_fraction: 0.5,
+        }
+    }
+
     /// The finer setting: 14 divisions, 5 + 5 layers, 14 504 hex8 (surface element
     /// ≈ 1.8 µm). 14 rather than 16 divisions because the symmetric FA sites fall closer to
     /// its nodes (largest snap 0.26 of an element instead of 0.42; see the docs).
@@ -108,7 +123,32 @@ pub struct SuspendedCellParams {
     pub seed: u64,
     /// Extra filaments of the density variant (none by default).
     pub density: DensityParams,
+    /// Local refinement of the mesh at both ends of the test axis, where the pipettes
+    /// grip and the plates press (none when `levels` is 0).
+    pub pole_refinement: PoleRefinement,
 }
+
+/// Local refinement at the poles of the test axis (`±x`): every hex8 with a corner within
+/// `radius` of a pole point `(±R, 0, 0)` is split `levels` times (octree, 2:1 balanced
+/// across faces and edges, hanging nodes tied; `cellmech_fem::mesh::refine`). The nodes it
+/// adds on the cell surface (not hanging) are moved radially onto the sphere, so the
+/// surface a plate or a pipette meets is the sphere sampled at the finer spacing. Done
+/// after the FAs are snapped: the FA nodes and the filaments do not move.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct PoleRefinement {
+    /// Levels of splitting (0: none; each halves the element size).
+    pub levels: u8,
+    /// Radius of the refined region around each pole point (µm).
+    pub radius: f64,
+}
+
+/// Most levels of pole refinement accepted (each multiplies the refined elements by 8).
+pub const MAX_POLE_REFINEMENT_LEVELS: u8 = 3;
+
+/// Most hex8 a pole refinement may make (the default mesh refined once everywhere has
+/// 22 528; the fine one refined once, 116 032): the octree stops with an error as soon as
+/// it would pass it.
+pub const MAX_POLE_REFINED_ELEMENTS: usize = 1_000_000;
 
 impl SuspendedCellParams {
     /// Checks every parameter; the error says what was expected and what was found.
@@ -149,6 +189,20 @@ impl SuspendedCellParams {
         }
         in_count_range("ifs_per_fa", self.ifs_per_fa, 1, MAX_IFS_PER_FA)?;
         in_count_range("mt_elements", self.mt_elements, 2, MAX_MT_ELEMENTS)?;
+        let r = self.pole_refinement;
+        if r.levels > MAX_POLE_REFINEMENT_LEVELS {
+            return Err(CellGeometryError::Refinement(format!(
+                "expected refinement.levels from 0 to {MAX_POLE_REFINEMENT_LEVELS}; found {}",
+                r.levels
+            )));
+        }
+        if r.levels > 0 && !(r.radius.is_finite() && r.radius > 0.0) {
+            return Err(CellGeometryError::Refinement(format!(
+                "expected refinement.radius to be a positive length when refinement.levels > 0; \
+                 found {} µm",
+                r.radius
+            )));
+        }
         let d = self.density;
         for (key, n) in [
             ("density.extra_actin", d.extra_actin),
@@ -215,6 +269,9 @@ fn in_count_range(
 /// Why a suspended-cell geometry could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum CellGeometryError {
+    /// The pole refinement is out of range or could not be made.
+    #[error("refinement: {0}")]
+    Refinement(String),
     /// A size is zero, negative or not finite.
     #[error("expected {parameter} to be a positive finite length in µm; found {found}")]
     NotPositive {
@@ -432,6 +489,11 @@ pub struct SuspendedCellGeometry {
     pub extra: density::DensityLayout,
     /// Measured quality.
     pub report: GeometryReport,
+    /// Ties of the hanging nodes of a pole refinement (empty without one).
+    pub hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    /// The outer boundary quads of a pole refinement, outward (a coarse face covered by
+    /// finer ones excluded); empty without one (then the mesh is conforming).
+    pub boundary_faces: Vec<[usize; 4]>,
 }
 
 impl SuspendedCellGeometry {
@@ -500,6 +562,8 @@ impl SuspendedCellGeometry {
             },
             params.density,
         )?;
+        let (mut mesh, hanging, boundary_faces) =
+            refine_poles(mesh, params.pole_refinement, cell_radius, nucleus_radius)?;
         mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
         for (k, &n) in fa_nodes.iter().enumerate() {
             mesh.insert_node_set(format!("fa_{k}"), vec![n]);
@@ -566,6 +630,8 @@ impl SuspendedCellGeometry {
             intermediate_filaments: ifs.filaments,
             extra,
             report,
+            hanging,
+            boundary_faces,
         })
     }
 
@@ -594,6 +660,59 @@ impl SuspendedCellGeometry {
             })
             .collect()
     }
+}
+
+/// Splits the elements near the poles ([`PoleRefinement`]); returns the mesh, its hanging
+/// nodes and its outer boundary quads (the input unchanged with `levels` 0).
+fn refine_poles(
+    mesh: Mesh,
+    refinement: PoleRefinement,
+    cell_radius: f64,
+    nucleus_radius: f64,
+) -> Result<
+    (
+        Mesh,
+        Vec<cellmech_fem::mesh::refine::HangingNode>,
+        Vec<[usize; 4]>,
+    ),
+    CellGeometryError,
+> {
+    if refinement.levels == 0 {
+        return Ok((mesh, Vec::new(), Vec::new()));
+    }
+    let poles = [[cell_radius, 0.0, 0.0], [-cell_radius, 0.0, 0.0]];
+    let near = |corners: &[[f64; 3]; 8]| {
+        corners
+            .iter()
+            .any(|c| poles.iter().any(|p| norm(sub(*c, *p)) <= refinement.radius))
+    };
+    let refined = cellmech_fem::mesh::refine::refine_hex8_within(
+        &mesh,
+        |corners, _| if near(corners) { refinement.levels } else { 0 },
+        MAX_POLE_REFINED_ELEMENTS,
+    )
+    .map_err(|e| match e {
+        cellmech_fem::mesh::refine::RefineError::TooManyElements { max } => {
+            CellGeometryError::Refinement(format!(
+                "expected at most {max} hex8 after refinement; refinement.levels = {} within \
+                 {} µm of the poles makes more: lower refinement.levels or refinement.radius",
+                refinement.levels, refinement.radius
+            ))
+        }
+        e => CellGeometryError::Refinement(e.to_string()),
+    })?;
+    let mut out = refined.mesh;
+    let hanging: std::collections::HashSet<usize> =
+        refined.hanging.iter().map(|h| h.node).collect();
+    for (set, radius) in [("surface", cell_radius), ("inner_surface", nucleus_radius)] {
+        for &n in out.node_sets.get(set).cloned().unwrap_or_default().iter() {
+            if n >= mesh.num_nodes() && !hanging.contains(&n) {
+                let x = out.nodes[n];
+                out.nodes[n] = scale(x, radius / norm(x));
+            }
+        }
+    }
+    Ok((out, refined.hanging, refined.boundary_faces))
 }
 
 /// Smallest and largest per-MT maximum curvature.

@@ -260,7 +260,13 @@ pub fn suspended_cell_parts(
         (m.nucleus_shear_modulus, m.nucleus_poisson_ratio),
     )?;
     let mut structures = StructuresSpec::default();
-    let faces = boundary_quads(&mesh, None).map_err(component("membrane"))?;
+    // A pole refinement lists its outer faces (a coarse face covered by finer ones is
+    // interior); a conforming mesh's are found from the mesh.
+    let faces = if geometry.hanging.is_empty() {
+        boundary_quads(&mesh, None).map_err(component("membrane"))?
+    } else {
+        geometry.boundary_faces.clone()
+    };
     structures.membranes.push(MembraneSpec {
         name: family::MEMBRANE.into(),
         family: family::MEMBRANE.into(),
@@ -358,6 +364,14 @@ pub fn build_suspended_cell(
     materials: &SuspendedCellMaterials,
     components: Components,
 ) -> Result<SuspendedCellModel, CellModelError> {
+    if params.pole_refinement.levels > 0 {
+        return Err(CellModelError::Component {
+            component: "mesh",
+            message: "expected refinement.levels = 0 for the engine-term builder, which has no \
+                      hanging-node ties; build a refined cell with `SuspendedCell::build`"
+                .into(),
+        });
+    }
     let parts = suspended_cell_parts(params, materials, components)?;
     let mesh = parts.mesh;
     let dof_map = DofMap::with_counts(&crate::model::structures::dofs_per_node(
@@ -681,7 +695,7 @@ impl SuspendedCell {
                     axis: 0,
                 }],
                 embedded: self.coupling.embeddings(),
-                hanging: Vec::new(),
+                hanging: parts.geometry.hanging.clone(),
                 prestressed_reference: self.coupling.prestressed_reference(),
             },
             description,

@@ -285,11 +285,11 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         ),
         p(
             "resolution",
-            K::Choice(&["default", "fine"]),
+            K::Choice(&["default", "fast", "fine"]),
             D::Word("default"),
             ANY,
-            "mesh: 2816 hex8 (core 8 divisions, 3 + 3 layers) or 14 504 (`fine`)",
-            "choice ([geometry](suspended-cell-geometry.md))",
+            "mesh: 6912 hex8 (core 12 divisions, 3 + 3 layers), 2816 (`fast`: 8, 3 + 3; the default until 2026-12-04, its 10 % compression force 7 % low) or 14 504 (`fine`: 14, 5 + 5)",
+            "choice: the coarsest mesh measured within 5 % of the fine one at every reported compression and tension point ([validation](suspended-cell-validation.md#mesh-convergence))",
         ),
         p(
             "core_divisions",
@@ -439,7 +439,23 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             "spec (\"Studies\": density)",
         ),
         p(
-            "density.extra_microtubules",
+            "refinement.levels",
+            K::Count,
+            D::Count(0),
+            Bounds::new(0.0, true, super::layout::MAX_POLE_REFINEMENT_LEVELS as f64, true),
+            "levels of octree refinement (hanging nodes tied) of every hex8 with a corner within `refinement.radius` of a pole of the test axis (±x); a radius larger than the cell refines the whole mesh while the FAs and filaments stay where they are (a mesh-convergence check that does not move the cytoskeleton); 0: none",
+            "choice: off by default; refining only the poles overshoots the 10 % compression force (+6 % against the whole mesh refined), [validation](suspended-cell-validation.md#mesh-convergence)",
+        ),
+        p(
+            "refinement.radius",
+            K::Quantity(Length),
+            D::Number(8.0),
+            POS,
+            "radius of the refined region around each pole point (on the cell surface)",
+            CHOICE,
+        ),
+        p(
+"density.extra_microtubules",
             K::Count,
             D::Count(0),
             EXTRA,
@@ -453,6 +469,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
 pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMaterials) {
     let mut mesh = match v.word("resolution") {
         "fine" => MeshResolution::fine(),
+        "fast" => MeshResolution::fast(),
         _ => MeshResolution::default(),
     };
     for (key, target) in [
@@ -489,6 +506,10 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             extra_actin: v.count("density.extra_actin"),
             extra_intermediate: v.count("density.extra_intermediate"),
             extra_microtubules: v.count("density.extra_microtubules"),
+        },
+        pole_refinement: super::layout::PoleRefinement {
+            levels: v.count("refinement.levels").min(u8::MAX as usize) as u8,
+            radius: v.number("refinement.radius"),
         },
     };
     let materials = SuspendedCellMaterials {

@@ -24,7 +24,8 @@ fn print_report(label: &str, g: &SuspendedCellGeometry) {
 fn default_geometry_has_30_distinct_fa_nodes_on_the_sphere() {
     let g = default_geometry();
     print_report("default", &g);
-    assert_eq!(g.report.hex8_elements, 2816);
+    assert_eq!(g.report.hex8_elements, 6912);
+    assert_eq!(g.report.hex8_elements, MeshResolution::default().elements());
     assert_eq!(g.fa_nodes.len(), 30);
     let distinct: BTreeSet<usize> = g.fa_nodes.iter().cloned().collect();
     assert_eq!(distinct.len(), 30);
@@ -74,6 +75,7 @@ fn af_edges_are_60_equal_edges_of_length_r_over_phi_with_degree_4() {
 fn snapping_keeps_positive_jacobians_and_moves_nodes_by_a_fraction_of_an_element() {
     for (label, mesh) in [
         ("default", MeshResolution::default()),
+        ("fast", MeshResolution::fast()),
         ("fine", MeshResolution::fine()),
     ] {
         let params = SuspendedCellParams {
@@ -98,11 +100,15 @@ fn snapping_keeps_positive_jacobians_and_moves_nodes_by_a_fraction_of_an_element
 #[test]
 fn symmetric_orientation_snaps_axis_fas_exactly_and_the_other_24_equally() {
     let params = SuspendedCellParams::default();
+    let res = params.mesh;
     let unsnapped =
         cellmech_fem::mesh::generate::sphere_mesh(&cellmech_fem::mesh::generate::SphereMeshSpec {
             radius: R,
             inner_radius: Some(R_N),
-            ..Default::default()
+            core_divisions: res.core_divisions,
+            shell_layers: res.shell_layers,
+            outer_layers: res.outer_layers,
+            core_fraction: res.core_fraction,
         })
         .unwrap();
     let g = SuspendedCellGeometry::build(&params).unwrap();
@@ -480,4 +486,167 @@ fn centrosome_direction_towards_an_fa_or_its_antipode_still_routes() {
         assert!(mt.length() > mt.chord());
         assert!(polyline_distance_to_origin(&mt.points) > R_N + 0.25);
     }
+}
+
+#[test]
+fn pole_refinement_splits_only_near_the_poles_and_keeps_the_fas_and_the_sphere() {
+    let base = default_geometry();
+    let g = SuspendedCellGeometry::build(&SuspendedCellParams {
+        pole_refinement: PoleRefinement {
+            levels: 1,
+            radius: 8.0,
+        },
+        ..Default::default()
+    })
+    .unwrap();
+    g.mesh.validate().unwrap();
+    let n0 = base.mesh.num_nodes();
+    // The base nodes keep their indices and positions, so every filament is unchanged.
+    assert_eq!(&g.mesh.nodes[..n0], &base.mesh.nodes[..]);
+    assert_eq!(g.fa_nodes, base.fa_nodes);
+    assert_eq!(g.af_edges, base.af_edges);
+    assert_eq!(g.intermediate_filaments, base.intermediate_filaments);
+    let elements = g.mesh.num_elements();
+    assert!(
+        elements > base.mesh.num_elements() + 7 * 20 && elements < 2 * base.mesh.num_elements(),
+        "{elements} hex8"
+    );
+    assert!(!g.hanging.is_empty());
+    // Every new node lies near a pole; the new surface nodes that do not hang lie on the
+    // sphere, the hanging ones on their coarse edge or face (inside it).
+    let hanging: BTreeSet<usize> = g.hanging.iter().map(|h| h.node).collect();
+    let surface: BTreeSet<usize> = g.mesh.node_sets["surface"].iter().copied().collect();
+    let mut on_sphere = 0;
+    for n in n0..g.mesh.num_nodes() {
+        let p = g.mesh.nodes[n];
+        let to_pole = distance(p, [R, 0.0, 0.0]).min(distance(p, [-R, 0.0, 0.0]));
+        // Within the radius plus one split element (the 2:1 balance may reach a little
+        // further; 6 µm is two surface elements of the default mesh).
+        assert!(
+            to_pole < 8.0 + 6.0,
+            "node {n} at {p:?}, {to_pole} µm from a pole"
+        );
+        if surface.contains(&n) && !hanging.contains(&n) {
+            assert!((norm(p) - R).abs() < 1e-9, "node {n} at radius {}", norm(p));
+            on_sphere += 1;
+        }
+        if hanging.contains(&n) {
+            assert!(norm(p) < R + 1e-9);
+        }
+    }
+    assert!(
+        on_sphere > 20,
+        "{on_sphere} new surface nodes on the sphere"
+    );
+    // The outer faces: each refined surface face is replaced by four, none repeated, and
+    // every one has its nodes on the surface.
+    let faces: BTreeSet<[usize; 4]> = g
+        .boundary_faces
+        .iter()
+        .map(|f| {
+            let mut s = *f;
+            s.sort_unstable();
+            s
+        })
+        .collect();
+    assert_eq!(faces.len(), g.boundary_faces.len());
+    assert!(g
+        .boundary_faces
+        .iter()
+        .all(|f| f.iter().all(|n| surface.contains(n))));
+    let base_faces = cellmech_fem::mesh::generate::boundary_faces(&base.mesh).len();
+    assert_eq!((g.boundary_faces.len() - base_faces) % 3, 0);
+    assert!(g.boundary_faces.len() > base_faces);
+    // Levels off: the mesh is unchanged and conforming (no faces listed, no ties).
+    assert!(base.hanging.is_empty() && base.boundary_faces.is_empty());
+    let q = hex8_quality(&g.mesh);
+    assert!(q.min_scaled_jacobian > 0.0, "{q:?}");
+}
+
+#[test]
+fn pole_refinement_out_of_range_is_a_clear_error() {
+    for (levels, radius, want) in [(4, 8.0, "refinement.levels"), (1, 0.0, "refinement.radius")] {
+        let e = SuspendedCellGeometry::build(&SuspendedCellParams {
+            pole_refinement: PoleRefinement { levels, radius },
+            ..Default::default()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains(want), "{e}");
+    }
+}
+
+/// Area of a quad (two triangles) and its outward flux direction check.
+fn quad_area_and_outward(nodes: &[[f64; 3]], f: &[usize; 4]) -> (f64, bool) {
+    let p = f.map(|n| nodes[n]);
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let n1 = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+    let n2 = cross(sub(p[2], p[0]), sub(p[3], p[0]));
+    let n = [n1[0] + n2[0], n1[1] + n2[1], n1[2] + n2[2]];
+    let centre: [f64; 3] = std::array::from_fn(|k| p.iter().map(|q| q[k]).sum::<f64>() / 4.0);
+    (0.5 * norm(n), dot(n, centre) > 0.0)
+}
+
+#[test]
+fn a_refined_cell_ties_its_hanging_nodes_and_its_membrane_covers_the_sphere_once() {
+    // Coarse CI mesh refined once everywhere: every outer face is split in four.
+    let coarse = MeshResolution {
+        core_divisions: 4,
+        shell_layers: 2,
+        outer_layers: 2,
+        core_fraction: 0.5,
+    };
+    let cell = |levels: u8| {
+        let mut c = SuspendedCell::default();
+        c.params.mesh = coarse;
+        c.params.pole_refinement = PoleRefinement {
+            levels,
+            radius: 100.0,
+        };
+        c.build().unwrap()
+    };
+    let (base, refined) = (cell(0), cell(1));
+    assert!(base.model.hanging.is_empty());
+    // Refined everywhere: no hanging node at all (every leaf has the same level).
+    assert!(refined.model.hanging.is_empty());
+    assert_eq!(refined.model.mesh.num_elements(), 8 * 448);
+    let area = |b: &crate::cell::BuiltCell| {
+        let nodes = &b.model.mesh.nodes;
+        let mut total = 0.0;
+        for f in &b.surface_faces {
+            let (a, outward) = quad_area_and_outward(nodes, f);
+            assert!(outward, "face {f:?} points inwards");
+            total += a;
+        }
+        total
+    };
+    let sphere = 4.0 * std::f64::consts::PI * R * R;
+    let (a0, a1) = (area(&base), area(&refined));
+    assert_eq!(refined.surface_faces.len(), 4 * base.surface_faces.len());
+    // Finer facets inscribed in the sphere: more area, still below the sphere's.
+    assert!(a0 < a1 && a1 < sphere, "{a0} {a1} {sphere}");
+    assert!((sphere - a1) < 0.5 * (sphere - a0), "{a0} {a1} {sphere}");
+
+    // Refined at the poles only: hanging nodes, passed to the model for tying, and the
+    // membrane is the leaf faces (a coarse face under four fine ones is not listed).
+    let mut c = SuspendedCell::default();
+    c.params.mesh = coarse;
+    c.params.pole_refinement = PoleRefinement {
+        levels: 1,
+        radius: 8.0,
+    };
+    let poles = c.build().unwrap();
+    assert!(!poles.model.hanging.is_empty());
+    let geometry = SuspendedCellGeometry::build(&c.params).unwrap();
+    assert_eq!(poles.model.hanging, geometry.hanging);
+    let a2 = area(&poles);
+    assert!(a0 < a2 && a2 < a1, "{a0} {a2} {a1}");
+    let grew = poles.surface_faces.len() - base.surface_faces.len();
+    assert!(grew > 0 && grew % 3 == 0, "{grew}");
 }
