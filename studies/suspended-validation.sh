@@ -3,7 +3,7 @@
 # coupling mode with the eight disruption models, and the compression disruption study.
 # Each study is resumable (rerun to finish an interrupted one) and writes its own report.
 #
-#   sh studies/suspended-validation.sh [OUT] [JOBS]     # about 45 min on 2 cores
+#   sh studies/suspended-validation.sh [OUT] [JOBS]     # 45 min on 2 cores on the 2816-hex8 mesh, about 3x on the 6912-hex8 default
 set -eu
 OUT=${1:-validation}
 JOBS=${2:-1}

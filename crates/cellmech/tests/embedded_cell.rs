@@ -145,3 +145,59 @@ fn a_tied_centrosome_completes_the_tension_test_and_changes_little() {
         force(&free)
     );
 }
+
+/// The fourth coupling mode in CI, "all filaments embedded": every filament family follows
+/// the gel. MTs embedded (alternate nodes) and stress-free in the prestressed cell with the
+/// centrosome tied, as in the `mt-embedded-prestressed` mode, plus the AFs and the IFs split
+/// into 4 trusses each whose interior nodes are embedded (`actin.coupling`,
+/// `intermediate.coupling`). Measured on the coarse cell at 6.3 µm (2026-12-04): free
+/// 91.32 nN, AFs and IFs embedded 100.05 nN (+9.6 %), all embedded 122.64 nN (+34 %); the
+/// AFs' FA-end force sum 677 → 1025 nN (embedded AFs follow the gel's stretch instead of
+/// shortening along their chords); the IFs stay slack.
+#[test]
+fn all_filaments_embedded_complete_the_tension_test_and_the_afs_follow_the_gel() {
+    let free = tension("all-reference-free", "free");
+    let text = "title = \"all embedded\"\n[cell]\ncore_divisions = 4\nshell_layers = 2\n\
+                outer_layers = 2\n[cell.microtubules]\ncoupling = \"embedded\"\n\
+                centrosome = \"tied\"\nstress_free = \"prestressed-cell\"\n[cell.actin]\n\
+                coupling = \"embedded\"\n[cell.intermediate]\ncoupling = \"embedded\"\n\
+                [protocol]\nkind = \"micropipette-tension\"\n[output]\nvtk_every = 0\n";
+    let s = parse(text, "test.toml", std::path::Path::new(".")).unwrap();
+    let dir = std::env::temp_dir().join(format!("cellmech-emb-{}-all", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let all = run(&s, &dir, &mut NullObserver).unwrap();
+    assert_eq!(all.status, "completed");
+    let names: Vec<(&str, usize)> = all
+        .size
+        .embedding
+        .iter()
+        .map(|e| (e.name.as_str(), e.embedded_nodes))
+        .collect();
+    for want in [("actin_interior", 180), ("intermediate_interior", 180)] {
+        assert!(names.contains(&want), "{names:?}");
+    }
+    let v = |s: &cellmech::run::RunSummary, k: &str| s.final_values[k];
+    // 60 AFs of 4 trusses: filaments are counted as filaments, elements as elements.
+    assert_eq!(v(&all, "actin_filaments_in_tension"), 60.0);
+    assert_eq!(v(&all, "actin_in_tension"), 240.0);
+    assert_eq!(
+        v(&all, "intermediate_filaments_slack")
+            + v(&all, "intermediate_filaments_in_tension")
+            + v(&all, "intermediate_filaments_in_compression"),
+        60.0
+    );
+    let force = |s: &cellmech::run::RunSummary| s.protocol.as_ref().unwrap().last.unwrap().force_nn;
+    assert!(
+        force(&all) > 1.2 * force(&free),
+        "all embedded {} nN vs free {} nN",
+        force(&all),
+        force(&free)
+    );
+    // Embedded AFs are stretched with the gel: they end far above the free AFs' load.
+    assert!(
+        v(&all, "actin_fa_force_sum_nN") > 1.3 * v(&free, "actin_fa_force_sum_nN"),
+        "{} vs {}",
+        v(&all, "actin_fa_force_sum_nN"),
+        v(&free, "actin_fa_force_sum_nN")
+    );
+}

@@ -61,7 +61,7 @@ pub const BUILTIN: &[BuiltinStudy] = &[
     },
     BuiltinStudy {
         name: "suspended-compression-coupling",
-        summary: "compression to 50 %: free and embedded (prestressed-cell) MTs x the 8 disruption models (16 cases)",
+        summary: "compression to 50 %: free MTs, embedded (prestressed-cell) MTs and all filaments embedded x the 8 disruption models (24 cases)",
         text: include_str!("../../../../studies/suspended-compression-coupling.toml"),
     },
     BuiltinStudy {

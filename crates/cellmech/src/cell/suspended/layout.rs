@@ -126,6 +126,11 @@ pub struct SuspendedCellParams {
     /// Local refinement of the mesh at both ends of the test axis, where the pipettes
     /// grip and the plates press (none when `levels` is 0).
     pub pole_refinement: PoleRefinement,
+    /// Truss elements per AF (1: one straight truss between its FAs; more only when the
+    /// AFs' interior nodes are embedded, `actin.coupling = "embedded"`).
+    pub af_elements: usize,
+    /// Truss elements per IF (1, or more with `intermediate.coupling = "embedded"`).
+    pub if_elements: usize,
 }
 
 /// Local refinement at the poles of the test axis (`±x`): every hex8 with a corner within
@@ -189,6 +194,13 @@ impl SuspendedCellParams {
         }
         in_count_range("ifs_per_fa", self.ifs_per_fa, 1, MAX_IFS_PER_FA)?;
         in_count_range("mt_elements", self.mt_elements, 2, MAX_MT_ELEMENTS)?;
+        in_count_range("actin.elements", self.af_elements, 1, MAX_MT_ELEMENTS)?;
+        in_count_range(
+            "intermediate.elements",
+            self.if_elements,
+            1,
+            MAX_MT_ELEMENTS,
+        )?;
         let r = self.pole_refinement;
         if r.levels > MAX_POLE_REFINEMENT_LEVELS {
             return Err(CellGeometryError::Refinement(format!(

@@ -244,6 +244,39 @@ pub(crate) fn intermediate_filaments(
     })
 }
 
+/// Node set of the AFs' interior nodes (when split into several trusses).
+pub const ACTIN_INTERIOR: &str = "actin_interior";
+/// Node set of the IFs' interior nodes (when split into several trusses).
+pub const INTERMEDIATE_INTERIOR: &str = "intermediate_interior";
+
+/// Splits each straight filament `[a, b]` into `elements` trusses: appends the interior
+/// points (equally spaced on the chord) to `mesh.nodes` and returns the chained pairs, in
+/// filament order, and the interior nodes. `elements` of 1 returns the pairs unchanged.
+pub(crate) fn split_straight_filaments(
+    mesh: &mut Mesh,
+    pairs: &[[usize; 2]],
+    elements: usize,
+) -> (Vec<[usize; 2]>, Vec<usize>) {
+    let elements = elements.max(1);
+    let mut out = Vec::with_capacity(pairs.len() * elements);
+    let mut interior = Vec::with_capacity(pairs.len() * (elements - 1));
+    for &[a, b] in pairs {
+        let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
+        let mut previous = a;
+        for k in 1..elements {
+            let t = k as f64 / elements as f64;
+            let node = mesh.nodes.len();
+            mesh.nodes
+                .push(std::array::from_fn(|c| pa[c] + t * (pb[c] - pa[c])));
+            interior.push(node);
+            out.push([previous, node]);
+            previous = node;
+        }
+        out.push([previous, b]);
+    }
+    (out, interior)
+}
+
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -281,11 +314,29 @@ pub fn suspended_cell_parts(
         tension_only_law("actin", a.youngs_modulus, a.diameter)?.with_prestrain(a.prestrain);
     // Filament identity: one AF per edge (both ends on FAs), one MT per chain (centrosome
     // first, FA last), one IF per [FA, nucleus anchor] pair.
+    // AFs and IFs split for embedding (one truss each otherwise): their interior nodes
+    // come after the MTs' (node sets `actin_interior`, `intermediate_interior`).
+    let (af_pairs, af_interior) =
+        split_straight_filaments(&mut mesh, &geometry.af_edges, params.af_elements);
+    let (if_pairs, if_interior) = split_straight_filaments(
+        &mut mesh,
+        &geometry.intermediate_filaments,
+        params.if_elements,
+    );
+    if params.af_elements > 1 {
+        mesh.insert_node_set(ACTIN_INTERIOR, af_interior);
+    }
+    if params.if_elements > 1 {
+        mesh.insert_node_set(INTERMEDIATE_INTERIOR, if_interior);
+    }
     structures.filaments.push(FilamentSpec {
         name: family::ACTIN.into(),
         family: family::ACTIN.into(),
-        filaments: Filament::one_per_element(geometry.af_edges.len(), Some(FilamentEnd::Both)),
-        pairs: geometry.af_edges.clone(),
+        filaments: Filament::consecutive(
+            &vec![params.af_elements; geometry.af_edges.len()],
+            Some(FilamentEnd::Both),
+        ),
+        pairs: af_pairs,
         element: FilamentElement::Truss(actin),
         enabled: components.actin,
     });
@@ -295,11 +346,12 @@ pub fn suspended_cell_parts(
         &chains[..fa_mts],
         components.microtubules,
     )?);
-    structures.filaments.push(intermediate_filaments(
-        &m.intermediate,
-        &geometry.intermediate_filaments,
-        components.intermediate,
-    )?);
+    let mut ifs = intermediate_filaments(&m.intermediate, &if_pairs, components.intermediate)?;
+    ifs.filaments = Filament::consecutive(
+        &vec![params.if_elements; geometry.intermediate_filaments.len()],
+        Some(FilamentEnd::Start),
+    );
+    structures.filaments.push(ifs);
     // The density variant's extra filaments: groups of their own after the published ones
     // (whose filament ids therefore do not change), in the same families (so `[families]`
     // switches and scales them too), with the same materials. None by default.
@@ -465,6 +517,11 @@ pub struct Coupling {
     /// "prestressed-cell"`) instead of in the mesh: see
     /// [`crate::model::prestressed_reference`].
     pub microtubules_prestressed: bool,
+    /// The AFs' interior nodes (node set `actin_interior`) follow the cytoplasm
+    /// (`actin.coupling = "embedded"`; the AFs are split into `actin.elements` trusses).
+    pub actin_embedded: bool,
+    /// The IFs' interior nodes (node set `intermediate_interior`) follow the cytoplasm.
+    pub intermediate_embedded: bool,
 }
 
 /// Which interior MT nodes follow the continuum (`[cell.microtubules] embedded_nodes`).
@@ -525,6 +582,12 @@ impl Coupling {
         }
         if self.centrosome_tied {
             out.push(spec("centrosome"));
+        }
+        if self.actin_embedded {
+            out.push(spec(ACTIN_INTERIOR));
+        }
+        if self.intermediate_embedded {
+            out.push(spec(INTERMEDIATE_INTERIOR));
         }
         out
     }

@@ -383,6 +383,38 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             "actin prestrain (tension-only trusses)",
             SPEC,
         ),
+        p(
+            "actin.coupling",
+            K::Choice(&["free", "embedded"]),
+            D::Word("free"),
+            ANY,
+            "AF interior: `free`, one straight truss between its two FAs; `embedded`, each AF split into `actin.elements` trusses whose interior nodes follow the cytoplasm they lie in (the AF becomes a fibre of the gel)",
+            "choice (spec: \"The hybrid model idea\"; the `all-embedded` mode of the validation)",
+        ),
+        p(
+            "actin.elements",
+            K::Count,
+            D::Count(4),
+            Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true),
+            "with `actin.coupling = \"embedded\"`: trusses per AF (each with the AF's prestrain); unused when free",
+            CHOICE,
+        ),
+        p(
+            "intermediate.coupling",
+            K::Choice(&["free", "embedded"]),
+            D::Word("free"),
+            ANY,
+            "IF interior: `free`, one slack truss from its FA to its nucleus anchor; `embedded`, each IF split into `intermediate.elements` trusses (each with the IF's slack) whose interior nodes follow the cytoplasm",
+            "choice (spec: \"The hybrid model idea\"; the `all-embedded` mode of the validation)",
+        ),
+        p(
+            "intermediate.elements",
+            K::Count,
+            D::Count(4),
+            Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true),
+            "with `intermediate.coupling = \"embedded\"`: trusses per IF; unused when free",
+            CHOICE,
+        ),
         MICROTUBULES_YOUNGS_MODULUS,
         MICROTUBULES_OUTER_DIAMETER,
         MICROTUBULES_INNER_DIAMETER,
@@ -507,6 +539,16 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             extra_intermediate: v.count("density.extra_intermediate"),
             extra_microtubules: v.count("density.extra_microtubules"),
         },
+        af_elements: if v.word("actin.coupling") == "embedded" {
+            v.count("actin.elements")
+        } else {
+            1
+        },
+        if_elements: if v.word("intermediate.coupling") == "embedded" {
+            v.count("intermediate.elements")
+        } else {
+            1
+        },
         pole_refinement: super::layout::PoleRefinement {
             levels: v.count("refinement.levels").min(u8::MAX as usize) as u8,
             radius: v.number("refinement.radius"),
@@ -607,6 +649,8 @@ pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
         },
         centrosome_tied: v.word("microtubules.centrosome") == "tied",
         microtubules_prestressed: v.word("microtubules.stress_free") == "prestressed-cell",
+        actin_embedded: v.optional_word("actin.coupling") == Some("embedded"),
+        intermediate_embedded: v.optional_word("intermediate.coupling") == Some("embedded"),
     }
 }
 
