@@ -277,6 +277,35 @@ pub(crate) fn split_straight_filaments(
     (out, interior)
 }
 
+/// A split AF or IF must have its interior nodes embedded (free collinear trusses are a
+/// mechanism), and an embedded family must be split (it has no interior nodes otherwise).
+fn check_split_filaments_are_embedded(
+    params: &SuspendedCellParams,
+    coupling: &Coupling,
+) -> Result<(), CellModelError> {
+    for (key, elements, embedded) in [
+        ("actin", params.af_elements, coupling.actin_embedded),
+        (
+            "intermediate",
+            params.if_elements,
+            coupling.intermediate_embedded,
+        ),
+    ] {
+        if (elements > 1) != embedded {
+            return Err(CellModelError::Component {
+                component: "filaments",
+                message: format!(
+                    "expected {key}.coupling = \"embedded\" exactly when the {key} filaments \
+                     are split into several trusses; found {elements} truss(es) per filament \
+                     with the interior {}",
+                    if embedded { "embedded" } else { "free" }
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -416,6 +445,7 @@ pub fn build_suspended_cell(
     materials: &SuspendedCellMaterials,
     components: Components,
 ) -> Result<SuspendedCellModel, CellModelError> {
+    check_split_filaments_are_embedded(params, &Coupling::default())?;
     if params.pole_refinement.levels > 0 {
         return Err(CellModelError::Component {
             component: "mesh",
@@ -662,6 +692,7 @@ impl SuspendedCell {
     /// Builds the cell: mesh, materials, structures, 3-2-1 supports, the nucleus shape
     /// probe, and the prestress step every protocol starts with.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
+        check_split_filaments_are_embedded(&self.params, &self.coupling)?;
         let parts = suspended_cell_parts(&self.params, &self.materials, self.components)?;
         let params = &self.params;
         let report = &parts.geometry.report;

@@ -650,3 +650,45 @@ fn a_refined_cell_ties_its_hanging_nodes_and_its_membrane_covers_the_sphere_once
     let grew = poles.surface_faces.len() - base.surface_faces.len();
     assert!(grew > 0 && grew % 3 == 0, "{grew}");
 }
+
+#[test]
+fn split_filaments_without_embedding_and_embedding_without_split_are_errors() {
+    let mut cell = SuspendedCell::default();
+    cell.params.mesh = MeshResolution {
+        core_divisions: 4,
+        shell_layers: 2,
+        outer_layers: 2,
+        core_fraction: 0.5,
+    };
+    cell.params.af_elements = 4;
+    let e = cell
+        .build()
+        .err()
+        .expect("free split AFs are a mechanism")
+        .to_string();
+    assert!(e.contains("actin.coupling") && e.contains("free"), "{e}");
+    cell.params.af_elements = 1;
+    cell.coupling.intermediate_embedded = true;
+    let e = cell.build().err().expect("nothing to embed").to_string();
+    assert!(e.contains("intermediate.coupling"), "{e}");
+    // Consistent: split and embedded, both families.
+    cell.params.af_elements = 4;
+    cell.params.if_elements = 3;
+    cell.coupling.actin_embedded = true;
+    let built = cell.build().unwrap();
+    let mesh = &built.model.mesh;
+    assert_eq!(mesh.node_sets[ACTIN_INTERIOR].len(), 60 * 3);
+    assert_eq!(mesh.node_sets[INTERMEDIATE_INTERIOR].len(), 60 * 2);
+    // Interior points equally spaced on each chord.
+    let actin = &built.model.structures.filaments[0];
+    assert_eq!(actin.pairs.len(), 240);
+    for f in actin.pairs.chunks(4) {
+        let (a, b) = (mesh.nodes[f[0][0]], mesh.nodes[f[3][1]]);
+        for (k, pair) in f.iter().enumerate() {
+            let p = mesh.nodes[pair[0]];
+            let t = k as f64 / 4.0;
+            let want: [f64; 3] = std::array::from_fn(|c| a[c] + t * (b[c] - a[c]));
+            assert!(distance(p, want) < 1e-12);
+        }
+    }
+}
