@@ -298,6 +298,14 @@ pub struct AnalysisBench {
 /// mesh when `coarse`; an entry named `*-fine` on the cell's fine mesh otherwise) in a
 /// scratch directory under `dir` and measures it.
 pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBench, String> {
+    let text = analysis_text(name, coarse)?;
+    let analysis = crate::scenario::parse(&text, &format!("<bench: {name}>"), Path::new("."))
+        .map_err(|e| e.to_string())?;
+    measure(name, coarse, &analysis, dir)
+}
+
+/// The scenario text of the analysis `name` of [`ANALYSES`] (see [`bench_analysis`]).
+fn analysis_text(name: &str, coarse: bool) -> Result<String, String> {
     let (_, example, _) = ANALYSES
         .iter()
         .find(|(n, _, _)| *n == name)
@@ -320,12 +328,19 @@ pub fn bench_analysis(name: &str, coarse: bool, dir: &Path) -> Result<AnalysisBe
     if name.starts_with("sphere-50") {
         text = sphere_50_text(&text, coarse, name.ends_with("-bfgs"))?;
     }
-    text = text.replace("vtk_every = 5", "vtk_every = 0");
-    let analysis = crate::scenario::parse(&text, &format!("<bench: {name}>"), Path::new("."))
-        .map_err(|e| e.to_string())?;
+    Ok(text.replace("vtk_every = 5", "vtk_every = 0"))
+}
+
+/// Runs a parsed bench analysis in `dir/name` and measures it.
+fn measure(
+    name: &str,
+    coarse: bool,
+    analysis: &crate::scenario::Scenario,
+    dir: &Path,
+) -> Result<AnalysisBench, String> {
     let out = dir.join(name);
     let start = Instant::now();
-    let summary = crate::run::run(&analysis, &out, &mut cellmech_fem::solve::NullObserver)
+    let summary = crate::run::run(analysis, &out, &mut cellmech_fem::solve::NullObserver)
         .map_err(|e| e.to_string())?;
     let wall_s = start.elapsed().as_secs_f64();
     let t = summary.solver_timings;
@@ -393,5 +408,23 @@ mod sphere_50_tests {
         let coarse = sphere_50_text(example.text, true, false).expect("rewrites");
         assert!(coarse.contains("core_divisions = 6"));
         assert!(sphere_50_text("title = \"x\"", false, false).is_err());
+    }
+
+    #[test]
+    fn the_cell_entries_run_on_the_mesh_their_baseline_was_set_on() {
+        for (name, hex8) in [
+            ("suspended-tension", 2816),
+            ("suspended-compression", 2816),
+            ("suspended-tension-fine", 14_504),
+        ] {
+            let text = analysis_text(name, false).expect("text");
+            let s = crate::scenario::parse(&text, name, Path::new(".")).expect("parses");
+            let n: usize = s.model.mesh.blocks.iter().map(|b| b.len()).sum();
+            assert_eq!(n, hex8, "{name}");
+        }
+        let text = analysis_text("suspended-tension", true).expect("text");
+        let s = crate::scenario::parse(&text, "coarse", Path::new(".")).expect("parses");
+        let n: usize = s.model.mesh.blocks.iter().map(|b| b.len()).sum();
+        assert_eq!(n, 448);
     }
 }
