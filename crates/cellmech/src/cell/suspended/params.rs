@@ -487,7 +487,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             CHOICE,
         ),
         p(
-"density.extra_microtubules",
+            "density.extra_microtubules",
             K::Count,
             D::Count(0),
             EXTRA,
