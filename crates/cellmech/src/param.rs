@@ -246,15 +246,6 @@ impl ParamValues {
         }
     }
 
-    /// A word of a parameter that only some tables declare (`None` when absent).
-    pub fn optional_word(&self, key: &str) -> Option<&str> {
-        match self.values.get(key) {
-            None => None,
-            Some(ParamValue::Word(x)) => Some(x),
-            other => undeclared(key, other),
-        }
-    }
-
     /// A list of numbers.
     pub fn list(&self, key: &str) -> &[f64] {
         match self.values.get(key) {

@@ -126,10 +126,12 @@ pub struct SuspendedCellParams {
     /// Local refinement of the mesh at both ends of the test axis, where the pipettes
     /// grip and the plates press (none when `levels` is 0).
     pub pole_refinement: PoleRefinement,
-    /// Truss elements per AF (1: one straight truss between its FAs; more only when the
-    /// AFs' interior nodes are embedded, `actin.coupling = "embedded"`).
+    /// Truss elements per AF: 1, one straight truss between its FAs; more, the AF split
+    /// along its chord with the interior nodes embedded in the cytoplasm
+    /// (`actin.coupling = "embedded"`).
     pub af_elements: usize,
-    /// Truss elements per IF (1, or more with `intermediate.coupling = "embedded"`).
+    /// Truss elements per IF: 1, or more, split and embedded
+    /// (`intermediate.coupling = "embedded"`).
     pub if_elements: usize,
 }
 

@@ -277,35 +277,6 @@ pub(crate) fn split_straight_filaments(
     (out, interior)
 }
 
-/// A split AF or IF must have its interior nodes embedded (free collinear trusses are a
-/// mechanism), and an embedded family must be split (it has no interior nodes otherwise).
-fn check_split_filaments_are_embedded(
-    params: &SuspendedCellParams,
-    coupling: &Coupling,
-) -> Result<(), CellModelError> {
-    for (key, elements, embedded) in [
-        ("actin", params.af_elements, coupling.actin_embedded),
-        (
-            "intermediate",
-            params.if_elements,
-            coupling.intermediate_embedded,
-        ),
-    ] {
-        if (elements > 1) != embedded {
-            return Err(CellModelError::Component {
-                component: "filaments",
-                message: format!(
-                    "expected {key}.coupling = \"embedded\" exactly when the {key} filaments \
-                     are split into several trusses; found {elements} truss(es) per filament \
-                     with the interior {}",
-                    if embedded { "embedded" } else { "free" }
-                ),
-            });
-        }
-    }
-    Ok(())
-}
-
 /// Builds the parts of the suspended cell: geometry, mesh, materials and structures.
 pub fn suspended_cell_parts(
     params: &SuspendedCellParams,
@@ -445,13 +416,23 @@ pub fn build_suspended_cell(
     materials: &SuspendedCellMaterials,
     components: Components,
 ) -> Result<SuspendedCellModel, CellModelError> {
-    check_split_filaments_are_embedded(params, &Coupling::default())?;
     if params.pole_refinement.levels > 0 {
         return Err(CellModelError::Component {
             component: "mesh",
             message: "expected refinement.levels = 0 for the engine-term builder, which has no \
                       hanging-node ties; build a refined cell with `SuspendedCell::build`"
                 .into(),
+        });
+    }
+    if params.af_elements > 1 || params.if_elements > 1 {
+        return Err(CellModelError::Component {
+            component: "filaments",
+            message: format!(
+                "expected one truss per AF and IF for the engine-term builder, which has no \
+                 embedding (split ones would be free collinear trusses, a mechanism); found \
+                 {} per AF and {} per IF: build the embedded cell with `SuspendedCell::build`",
+                params.af_elements, params.if_elements
+            ),
         });
     }
     let parts = suspended_cell_parts(params, materials, components)?;
@@ -547,11 +528,6 @@ pub struct Coupling {
     /// "prestressed-cell"`) instead of in the mesh: see
     /// [`crate::model::prestressed_reference`].
     pub microtubules_prestressed: bool,
-    /// The AFs' interior nodes (node set `actin_interior`) follow the cytoplasm
-    /// (`actin.coupling = "embedded"`; the AFs are split into `actin.elements` trusses).
-    pub actin_embedded: bool,
-    /// The IFs' interior nodes (node set `intermediate_interior`) follow the cytoplasm.
-    pub intermediate_embedded: bool,
 }
 
 /// Which interior MT nodes follow the continuum (`[cell.microtubules] embedded_nodes`).
@@ -591,13 +567,7 @@ impl Coupling {
     /// The model's embeddings (node sets `microtubule_anchors` or `microtubule_interior`,
     /// and `centrosome`; `microtubule_interior` with elastic ties for the foundation).
     pub fn embeddings(&self) -> Vec<crate::model::EmbedSpec> {
-        let spec = |name: &str| crate::model::EmbedSpec {
-            name: name.into(),
-            node_set: name.into(),
-            host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
-            tolerance: EMBED_TOLERANCE,
-            foundation_modulus: None,
-        };
+        let spec = continuum_embedding;
         let mut out = Vec::new();
         if let Some(k) = self.microtubule_foundation {
             out.push(crate::model::EmbedSpec {
@@ -613,14 +583,32 @@ impl Coupling {
         if self.centrosome_tied {
             out.push(spec("centrosome"));
         }
-        if self.actin_embedded {
-            out.push(spec(ACTIN_INTERIOR));
-        }
-        if self.intermediate_embedded {
-            out.push(spec(INTERMEDIATE_INTERIOR));
-        }
         out
     }
+}
+
+/// The node set `name` embedded in the cell's continuum (cytoplasm and nucleus).
+fn continuum_embedding(name: &str) -> crate::model::EmbedSpec {
+    crate::model::EmbedSpec {
+        name: name.into(),
+        node_set: name.into(),
+        host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
+        tolerance: EMBED_TOLERANCE,
+        foundation_modulus: None,
+    }
+}
+
+/// The interior nodes of split AFs and IFs, embedded in the continuum: a family is split
+/// (`actin.elements`, `intermediate.elements` > 1) only to be embedded.
+fn split_filament_embeddings(params: &SuspendedCellParams) -> Vec<crate::model::EmbedSpec> {
+    [
+        (params.af_elements, ACTIN_INTERIOR),
+        (params.if_elements, INTERMEDIATE_INTERIOR),
+    ]
+    .into_iter()
+    .filter(|&(elements, _)| elements > 1)
+    .map(|(_, set)| continuum_embedding(set))
+    .collect()
 }
 
 /// Largest overshoot (in natural coordinates) of an embedded node outside its host: MT
@@ -692,7 +680,6 @@ impl SuspendedCell {
     /// Builds the cell: mesh, materials, structures, 3-2-1 supports, the nucleus shape
     /// probe, and the prestress step every protocol starts with.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
-        check_split_filaments_are_embedded(&self.params, &self.coupling)?;
         let parts = suspended_cell_parts(&self.params, &self.materials, self.components)?;
         let params = &self.params;
         let report = &parts.geometry.report;
@@ -788,7 +775,11 @@ impl SuspendedCell {
                     node_set: "inner_surface".into(),
                     axis: 0,
                 }],
-                embedded: self.coupling.embeddings(),
+                embedded: [
+                    self.coupling.embeddings(),
+                    split_filament_embeddings(&self.params),
+                ]
+                .concat(),
                 hanging: parts.geometry.hanging.clone(),
                 prestressed_reference: self.coupling.prestressed_reference(),
             },

@@ -649,8 +649,6 @@ pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
         },
         centrosome_tied: v.word("microtubules.centrosome") == "tied",
         microtubules_prestressed: v.word("microtubules.stress_free") == "prestressed-cell",
-        actin_embedded: v.optional_word("actin.coupling") == Some("embedded"),
-        intermediate_embedded: v.optional_word("intermediate.coupling") == Some("embedded"),
     }
 }
 

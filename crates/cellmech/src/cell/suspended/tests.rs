@@ -576,19 +576,11 @@ fn pole_refinement_out_of_range_is_a_clear_error() {
     }
 }
 
-/// Area of a quad (two triangles) and its outward flux direction check.
+/// Area of a quad (half the cross product of its diagonals, exact for a flat one) and
+/// whether it points away from the cell centre.
 fn quad_area_and_outward(nodes: &[[f64; 3]], f: &[usize; 4]) -> (f64, bool) {
     let p = f.map(|n| nodes[n]);
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let n1 = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-    let n2 = cross(sub(p[2], p[0]), sub(p[3], p[0]));
-    let n = [n1[0] + n2[0], n1[1] + n2[1], n1[2] + n2[2]];
+    let n = crate::cell::vec3::cross(sub(p[2], p[0]), sub(p[3], p[1]));
     let centre: [f64; 3] = std::array::from_fn(|k| p.iter().map(|q| q[k]).sum::<f64>() / 4.0);
     (0.5 * norm(n), dot(n, centre) > 0.0)
 }
@@ -652,7 +644,7 @@ fn a_refined_cell_ties_its_hanging_nodes_and_its_membrane_covers_the_sphere_once
 }
 
 #[test]
-fn split_filaments_without_embedding_and_embedding_without_split_are_errors() {
+fn split_filaments_are_embedded_on_their_chords_and_the_engine_term_builder_refuses_them() {
     let mut cell = SuspendedCell::default();
     cell.params.mesh = MeshResolution {
         core_divisions: 4,
@@ -660,25 +652,30 @@ fn split_filaments_without_embedding_and_embedding_without_split_are_errors() {
         outer_layers: 2,
         core_fraction: 0.5,
     };
+    // The engine-term builder has no embedding: split filaments would be free collinear
+    // trusses (a mechanism), so it refuses them.
     cell.params.af_elements = 4;
-    let e = cell
-        .build()
+    let e = build_suspended_cell(&cell.params, &cell.materials, cell.components)
         .err()
         .expect("free split AFs are a mechanism")
         .to_string();
-    assert!(e.contains("actin.coupling") && e.contains("free"), "{e}");
-    cell.params.af_elements = 1;
-    cell.coupling.intermediate_embedded = true;
-    let e = cell.build().err().expect("nothing to embed").to_string();
-    assert!(e.contains("intermediate.coupling"), "{e}");
-    // Consistent: split and embedded, both families.
-    cell.params.af_elements = 4;
+    assert!(
+        e.contains("one truss per AF") && e.contains("mechanism"),
+        "{e}"
+    );
+    // Split AFs and IFs: their interior nodes are embedded in the continuum.
     cell.params.if_elements = 3;
-    cell.coupling.actin_embedded = true;
     let built = cell.build().unwrap();
     let mesh = &built.model.mesh;
     assert_eq!(mesh.node_sets[ACTIN_INTERIOR].len(), 60 * 3);
     assert_eq!(mesh.node_sets[INTERMEDIATE_INTERIOR].len(), 60 * 2);
+    let embedded: Vec<&str> = built
+        .model
+        .embedded
+        .iter()
+        .map(|e| e.node_set.as_str())
+        .collect();
+    assert_eq!(embedded, [ACTIN_INTERIOR, INTERMEDIATE_INTERIOR]);
     // Interior points equally spaced on each chord.
     let actin = &built.model.structures.filaments[0];
     assert_eq!(actin.pairs.len(), 240);
