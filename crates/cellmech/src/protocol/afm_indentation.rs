@@ -5,7 +5,7 @@
 //! dome nodes around the site; the base stays clamped throughout.
 
 use cellmech_fem::contact::{ContactKind, ToolShape};
-use cellmech_fem::solve::StepControl;
+use cellmech_fem::solve::{Extrapolation, StepControl};
 
 use super::apparent_modulus::FitSettings;
 use super::{ProtocolError, ProtocolPlan, ToolHandle};
@@ -77,6 +77,14 @@ pub const AFM_INDENTATION: ParamTable = ParamTable {
             bounds: Bounds::ANY,
             doc: "where the tip acts: the surface nodes, or 3 × 3 Gauss points on each surface face (a tip sharper than the stretched faces cannot slip between their nodes; slower: more contact-status solves per increment)",
             source: "choice ([tools](tools.md#face-contact))",
+        },
+        ParamDef {
+            key: "extrapolation",
+            kind: K::Choice(&["linear", "none"]),
+            default: D::Word("linear"),
+            bounds: Bounds::ANY,
+            doc: "where Newton starts each increment of the approach, indentation and retract steps: `linear`, the last increment extrapolated (the contact points the surface is carried onto are predicted from where it is heading, not from where it was); `none`, the converged state",
+            source: "choice, measured ([adherent cell](adherent-cell.md#extrapolated-starts)): half the Newton iterations with face contact, forces within 0.3 %",
         },
         ParamDef {
             key: "contact_force",
@@ -168,6 +176,8 @@ pub struct AfmIndentation {
     pub approach_gap: f64,
     /// Largest increment of the loading steps.
     pub max_increment: f64,
+    /// Where Newton starts each increment of the indentation steps.
+    pub extrapolation: Extrapolation,
     /// How the apparent modulus is fitted to the curve.
     pub fit: FitSettings,
 }
@@ -216,6 +226,10 @@ impl AfmIndentation {
             contact_force: v.number("contact_force"),
             approach_gap: v.number("approach_gap"),
             max_increment: v.number("max_increment"),
+            extrapolation: match v.word("extrapolation") {
+                "none" => Extrapolation::None,
+                _ => Extrapolation::Linear,
+            },
             fit: {
                 let r = v.number("tip_radius");
                 let tip = match (v.word("fit_model"), v.word("tip")) {
@@ -380,6 +394,7 @@ impl AfmIndentation {
         let loading = StepControl {
             initial_increment: self.max_increment.min(0.1),
             max_increment: self.max_increment,
+            extrapolation: self.extrapolation,
             ..cell.step_control
         };
         let hold = cell.rotation_hold.clone();
