@@ -176,7 +176,7 @@ pub struct AfmIndentation {
     pub approach_gap: f64,
     /// Largest increment of the loading steps.
     pub max_increment: f64,
-    /// Where Newton starts each increment of the indentation steps.
+    /// Where Newton starts each increment of the approach, indentation and retract steps.
     pub extrapolation: Extrapolation,
     /// How the apparent modulus is fitted to the curve.
     pub fit: FitSettings,
