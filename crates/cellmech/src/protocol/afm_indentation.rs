@@ -226,10 +226,7 @@ impl AfmIndentation {
             contact_force: v.number("contact_force"),
             approach_gap: v.number("approach_gap"),
             max_increment: v.number("max_increment"),
-            extrapolation: match v.word("extrapolation") {
-                "none" => Extrapolation::None,
-                _ => Extrapolation::Linear,
-            },
+            extrapolation: super::extrapolation(v),
             fit: {
                 let r = v.number("tip_radius");
                 let tip = match (v.word("fit_model"), v.word("tip")) {

@@ -78,10 +78,7 @@ impl MicroplateCompression {
             filament_contact: v.word("filament_contact") == "on",
             contact_force: v.number("contact_force"),
             max_increment: v.number("max_increment"),
-            extrapolation: match v.word("extrapolation") {
-                "none" => Extrapolation::None,
-                _ => Extrapolation::Linear,
-            },
+            extrapolation: super::extrapolation(v),
         }
     }
 

@@ -12,7 +12,7 @@ pub mod microplate_compression;
 pub mod results;
 
 use cellmech_fem::contact::{ContactKind, ToolShape};
-use cellmech_fem::solve::StepControl;
+use cellmech_fem::solve::{Extrapolation, StepControl};
 
 use crate::cell::BuiltCell;
 use crate::model::tools::{default_penalty, default_tolerance, ForceTarget, ToolMotion, ToolSpec};
@@ -536,6 +536,14 @@ impl PoleTest {
             forces: Vec::new(),
             tools,
         }
+    }
+}
+
+/// The `extrapolation` choice of a protocol's table ("linear" or "none").
+fn extrapolation(v: &ParamValues) -> Extrapolation {
+    match v.word("extrapolation") {
+        "none" => Extrapolation::None,
+        _ => Extrapolation::Linear,
     }
 }
 
