@@ -11,7 +11,9 @@ pub struct Convergence {
     /// the size of the internal forces that balance at the free DOFs (Σ|element forces|,
     /// which is what a prestressed structure carries with no external load).
     pub residual_tolerance: f64,
-    /// Energy criterion: |δuᵢ·Rᵢ| ≤ `energy_tolerance` · |δu₀·R₀|.
+    /// Energy criterion: |δuᵢ·Rᵢ| ≤ `energy_tolerance` · E₀, E₀ the work |δ₀·R₀| of the
+    /// increment's first correction, or of a contact round's first correction when that is
+    /// larger (a round starts when an augmentation changed the terms).
     pub energy_tolerance: f64,
     /// Maximum Newton iterations per increment before the increment is cut.
     pub max_iterations: usize,

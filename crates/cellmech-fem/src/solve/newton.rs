@@ -129,7 +129,14 @@ impl Problem {
             }
             None => self.factorize_and_solve()?,
         }
-        let energy0 = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+        // The energy criterion's reference: the work of the increment's first correction, or
+        // of a later round's first correction (after the terms changed) when that is larger.
+        // A good start (an extrapolated one) leaves the first correction tiny, and a contact
+        // status change later in the increment then moves the body by far more: measured
+        // against the tiny start, the round's energy ratio had to fall 12 orders below its
+        // own first correction's, long after the residual criterion was met.
+        let mut energy_reference =
+            dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
         let quasi_newton = match conv.method {
             IterationMethod::Newton => 0,
             IterationMethod::Bfgs { max_updates } => max_updates,
@@ -175,7 +182,7 @@ impl Problem {
                     self.line_search(conv, quasi_newton == 0, relaxing.then_some(tolerance))?;
             }
             let (residual_ratio, energy_ratio, scale) =
-                self.measure(&mut scale_floor, step_length, energy0);
+                self.measure(&mut scale_floor, step_length, energy_reference);
             self.work.scale = scale;
             let report = IterationReport {
                 iteration,
@@ -273,6 +280,10 @@ impl Problem {
                 } else {
                     self.factorize_and_solve()?;
                 }
+                if augmentations > 0 && iteration == round_start {
+                    energy_reference = energy_reference
+                        .max(dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs());
+                }
                 continue;
             }
             // Quasi-Newton: book the last step as an update, then reuse the factorisation
@@ -304,6 +315,10 @@ impl Problem {
                     self.factorize_and_solve()?;
                     self.work.updates = 0;
                 }
+            }
+            if augmentations > 0 && iteration == round_start {
+                energy_reference = energy_reference
+                    .max(dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs());
             }
             previous_norm = residual_norm;
             self.work.r_prev.copy_from_slice(&self.work.rhs);
@@ -472,7 +487,12 @@ impl Problem {
     }
 
     /// Residual ratio, energy ratio and force scale at the current point.
-    fn measure(&self, scale_floor: &mut f64, step_length: f64, energy0: f64) -> (f64, f64, f64) {
+    fn measure(
+        &self,
+        scale_floor: &mut f64,
+        step_length: f64,
+        energy_reference: f64,
+    ) -> (f64, f64, f64) {
         let n = self.u.len();
         let mut out_of_balance = 0.0;
         let mut reactions = 0.0;
@@ -495,8 +515,8 @@ impl Problem {
         } else {
             0.0
         };
-        let energy_ratio = if energy0 > 0.0 {
-            work.abs() / energy0
+        let energy_ratio = if energy_reference > 0.0 {
+            work.abs() / energy_reference
         } else {
             0.0
         };

@@ -86,10 +86,16 @@ fn newton_prescribed_stretch_of_spring_chain_gives_series_stiffness_reaction() {
 /// A spring fixed at the origin, its free end loaded sideways by (4, 3) nN: large rotation.
 /// Equilibrium: the spring aligns with the load, N = 5 = k (l - 0.8), so l = 1.3.
 fn large_rotation_spring() -> (Problem, Step) {
+    large_rotation_spring_with(Vec::new())
+}
+
+/// [`large_rotation_spring`] with more terms on its two nodes.
+fn large_rotation_spring_with(extra: Vec<Box<dyn Term>>) -> (Problem, Step) {
     let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
     let mut set = springs(&nodes, &[[0, 1]], 10.0);
     set.rest_length[0] = 0.8; // prestretched, so the lateral stiffness N/l is not zero
-    let terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
+    let mut terms: Vec<Box<dyn Term>> = vec![Box::new(set)];
+    terms.extend(extra);
     let p = Problem::new(
         DofMap::translational(2),
         terms,
@@ -615,4 +621,95 @@ fn relaxed_blocks_reach_the_same_equilibrium_in_fewer_global_iterations() {
     for w in ratios.windows(2).filter(|w| w[0] < 1e-2 && w[1] > 0.0) {
         assert!(w[1] < 10.0 * w[0] * w[0], "not quadratic: {ratios:?}");
     }
+}
+
+/// A load on one DOF that appears at the first augmentation after `arm_after` committed
+/// increments (as a contact status change adds a force late in an increment).
+struct LateLoad {
+    dof: usize,
+    force: f64,
+    arm_after: usize,
+    commits: usize,
+    on: bool,
+}
+
+impl Term for LateLoad {
+    fn name(&self) -> &str {
+        "late-load"
+    }
+    fn num_elements(&self) -> usize {
+        1
+    }
+    fn element_dofs(&self, _e: usize, _m: &DofMap, dofs: &mut [usize]) -> usize {
+        dofs[0] = self.dof;
+        1
+    }
+    fn evaluate(
+        &self,
+        _e: usize,
+        u: &[f64],
+        r: &mut [f64],
+        k: Option<&mut [f64]>,
+    ) -> Result<f64, crate::element::KernelError> {
+        let f = if self.on { self.force } else { 0.0 };
+        r[0] = -f;
+        if let Some(k) = k {
+            k[0] = 0.0;
+        }
+        Ok(-f * u[0])
+    }
+    fn augment(&mut self, _u: &[f64], _m: &DofMap) -> crate::term::Augmentation {
+        if !self.on && self.commits >= self.arm_after {
+            self.on = true;
+            crate::term::Augmentation::Updated("late load on".into())
+        } else {
+            crate::term::Augmentation::Settled
+        }
+    }
+    fn commit(&mut self, _u: &[f64], _m: &DofMap) {
+        self.commits += 1;
+    }
+}
+
+/// An extrapolated start leaves an increment's first correction tiny; when an augmentation
+/// later in the increment moves the body by far more, that round's energy criterion is
+/// measured against its own first correction, not against the tiny start (which would ask
+/// for an energy ratio many orders below what the residual criterion needs).
+#[test]
+fn a_round_after_a_late_augmentation_measures_energy_against_its_own_start() {
+    let late = LateLoad {
+        dof: 4,
+        force: 2.0,
+        arm_after: 4,
+        commits: 0,
+        on: false,
+    };
+    let (mut p, mut step) = large_rotation_spring_with(vec![Box::new(late)]);
+    step.loads = vec![
+        NodalLoad { dof: 3, value: 4.0 },
+        NodalLoad { dof: 4, value: 6.0 },
+    ];
+    step.control.initial_increment = 0.1;
+    step.control.max_increment = 0.1;
+    step.control.extrapolation = Extrapolation::Linear;
+    step.control.convergence.chord_near_convergence = false;
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    // Equilibrium under (4, 6 + 2): the spring along the load, N = |F| = k (l - 0.8).
+    let f = (4.0f64 * 4.0 + 8.0 * 8.0).sqrt();
+    let l = 0.8 + f / 10.0;
+    let (x, y) = (1.0 + p.u()[3], p.u()[4]);
+    assert!(
+        (x - l * 4.0 / f).abs() < 1e-9 && (y - l * 8.0 / f).abs() < 1e-9,
+        "x {x} y {y}"
+    );
+    // Every iteration's energy ratio is measured against a correction at least as large
+    // as its round's first: none exceeds 1 (against the increment's tiny first correction
+    // the late round's first iterations had ratios far above 1).
+    let worst = rec
+        .iterations
+        .iter()
+        .map(|r| r.energy_ratio)
+        .fold(0.0f64, f64::max);
+    assert!(worst <= 1.0, "largest energy ratio {worst}");
 }
