@@ -121,7 +121,7 @@ impl Problem {
             Some(false) => {
                 // Waiting for difficulty: calibrate on the real, undamped predictor.
                 self.factorize_and_solve()?;
-                let energy = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+                let energy = self.correction_work();
                 if let Some(st) = &mut self.stabilizer {
                     st.calibrate(Some(&self.work.delta), energy);
                     st.rate = 0.0;
@@ -135,8 +135,7 @@ impl Problem {
         // status change later in the increment then moves the body by far more: measured
         // against the tiny start, the round's energy ratio had to fall 12 orders below its
         // own first correction's, long after the residual criterion was met.
-        let mut energy_reference =
-            dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+        let mut energy_reference = self.correction_work();
         let quasi_newton = match conv.method {
             IterationMethod::Newton => 0,
             IterationMethod::Bfgs { max_updates } => max_updates,
@@ -281,8 +280,7 @@ impl Problem {
                     self.factorize_and_solve()?;
                 }
                 if augmentations > 0 && iteration == round_start {
-                    energy_reference = energy_reference
-                        .max(dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs());
+                    energy_reference = energy_reference.max(self.correction_work());
                 }
                 continue;
             }
@@ -317,8 +315,7 @@ impl Problem {
                 }
             }
             if augmentations > 0 && iteration == round_start {
-                energy_reference = energy_reference
-                    .max(dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs());
+                energy_reference = energy_reference.max(self.correction_work());
             }
             previous_norm = residual_norm;
             self.work.r_prev.copy_from_slice(&self.work.rhs);
@@ -486,6 +483,12 @@ impl Problem {
         message.map(|m| (m, multipliers_only))
     }
 
+    /// The work |δ·R| of the last solved correction against the right-hand side it was
+    /// solved for, over the free DOFs: what the energy criterion measures against.
+    fn correction_work(&self) -> f64 {
+        dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs()
+    }
+
     /// Residual ratio, energy ratio and force scale at the current point.
     fn measure(
         &self,
@@ -596,7 +599,7 @@ impl Problem {
     /// viscosity in the tangent.
     fn calibrate_stabilizer(&mut self) -> Result<(), FailureReason> {
         let undamped = self.factorize_and_solve();
-        let energy = dot_free(&self.work.delta, &self.work.rhs, &self.prescribed).abs();
+        let energy = self.correction_work();
         let pattern = solver_pattern(&self.condensation, &self.assembler);
         let Some(st) = &mut self.stabilizer else {
             return undamped;
