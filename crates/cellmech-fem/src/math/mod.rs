@@ -10,8 +10,8 @@ pub mod hyperdual;
 pub mod rotation;
 pub mod vec3;
 
-pub use dual::Dual;
-pub use hyperdual::{HyperDual, Scalar, HD_N};
+pub use dual::{Dual, DualN};
+pub use hyperdual::{HyperDual, HyperDual3, HyperDualN, Scalar, Seeded, HD_N};
 
 /// Where step time `t` falls on a piecewise-linear path through knots at `times`
 /// (increasing, not empty): `(i0, i1, w)` with the value `v[i0] + w·(v[i1] − v[i0])`. Before

@@ -34,8 +34,12 @@
 //!
 //! # Derivatives by automatic differentiation
 //! The kinematics and the energy are written once over [`Scalar`]; evaluated with
-//! [`HyperDual`] (12 variables) they give the residual `∂Πₑ/∂uₑ` and the consistent
-//! tangent `∂²Πₑ/∂uₑ²` to rounding error, with no hand-derived geometric stiffness.
+//! [`HyperDual`] they give the residual `∂Πₑ/∂uₑ` and the consistent tangent `∂²Πₑ/∂uₑ²`
+//! to rounding error, with no hand-derived geometric stiffness. The derivatives are taken
+//! in 9 variables, not 12: Πₑ depends on the translations only through `u_b − uₐ`
+//! (translation invariance), and each nodal triad `exp(θ̂)T₀` is evaluated in three
+//! variables and embedded. Both are exact; together they make an evaluation with the
+//! tangent about three times cheaper than 12-variable hyper-duals throughout.
 
 mod set;
 #[cfg(test)]
@@ -46,7 +50,7 @@ pub use set::{BeamElementResult, BeamSet, ForceStatistics};
 use super::KernelError;
 use crate::math::rotation::{exp_so3, log_so3, Mat3};
 use crate::math::vec3::{cross, dot, norm};
-use crate::math::{Dual, HyperDual, Scalar, HD_N};
+use crate::math::{Dual, HyperDual, Scalar, Seeded, HD_N};
 
 /// Number of DOFs of one beam element: `[uₐ(3), θₐ(3), u_b(3), θ_b(3)]`.
 pub const BEAM_DOFS: usize = 12;
@@ -300,15 +304,18 @@ pub struct BeamDeformation<S> {
 const MIN_FRAME_SINE: f64 = 1e-6;
 
 /// The corotational kinematics: chord length, extension and local end rotations of an
-/// element with DOF values `u` (order `[uₐ, θₐ, u_b, θ_b]`).
+/// element with DOF values `u` (order `[uₐ, θₐ, u_b, θ_b]`), as functions of the
+/// [`HD_N`] = 9 reduced variables `[u_b − uₐ, θₐ, θ_b]` when `S` carries derivatives (the
+/// kinematics depend on the translations only through their difference; [`expand`] maps the
+/// derivatives back to the 12 DOFs).
 ///
 /// Errors ([`KernelError::InvertedElement`] with `det_f` the offending measure, so the
 /// solver cuts the increment): a chord shorter than 1e-9 L (`det_f = ℓ/L`), a degenerate
 /// frame (`det_f = |r₁ × q|`), or a local rotation within ~0.1° of π
 /// (`det_f = 1 + tr(Rᵣᵀ T)`), which no small-strain state reaches.
-pub fn beam_deformation<S: Scalar>(
+pub fn beam_deformation<S: Seeded>(
     reference: &BeamReference,
-    u: &[S; BEAM_DOFS],
+    u: &[f64; BEAM_DOFS],
 ) -> Result<BeamDeformation<S>, KernelError> {
     let bad = |measure: f64| KernelError::InvertedElement {
         qp: 0,
@@ -318,7 +325,7 @@ pub fn beam_deformation<S: Scalar>(
     // full relative precision even when it is 1e-10 of the length (stiff filaments under
     // piconewton loads), where ℓ − L would lose it to cancellation.
     let big_d: [f64; 3] = std::array::from_fn(|i| reference.x_b[i] - reference.x_a[i]);
-    let delta: [S; 3] = std::array::from_fn(|i| u[6 + i] - u[i]);
+    let delta: [S; 3] = std::array::from_fn(|i| S::variable(i, u[6 + i] - u[i]));
     let d: [S; 3] = std::array::from_fn(|i| delta[i] + big_d[i]);
     let length = dot(&d, &d).sqrt();
     if !(length.value() > 1e-9 * reference.length) {
@@ -328,18 +335,25 @@ pub fn beam_deformation<S: Scalar>(
     let extension = (two_d_delta + dot(&delta, &delta)) / (length + reference.length);
     let inv_length = length.recip();
     let r1 = d.map(|c| c * inv_length);
-    let triad = |theta: [S; 3]| -> Mat3<S> {
+    // A nodal triad depends on that node's rotation vector alone: it is evaluated in the
+    // three-variable companion scalar and embedded (exact, and far cheaper than carrying
+    // all the variables through the exponential map).
+    let triad = |first: usize, dof: usize| -> Mat3<S> {
+        let theta: [S::Three; 3] = std::array::from_fn(|i| S::variable3(i, u[dof + i]));
         let r = exp_so3(&theta);
         std::array::from_fn(|i| {
             std::array::from_fn(|j| {
-                r[i][0] * reference.triad[0][j]
-                    + r[i][1] * reference.triad[1][j]
-                    + r[i][2] * reference.triad[2][j]
+                S::embed3(
+                    r[i][0] * reference.triad[0][j]
+                        + r[i][1] * reference.triad[1][j]
+                        + r[i][2] * reference.triad[2][j],
+                    first,
+                )
             })
         })
     };
-    let t_a = triad([u[3], u[4], u[5]]);
-    let t_b = triad([u[9], u[10], u[11]]);
+    let t_a = triad(3, 3);
+    let t_b = triad(6, 9);
     let q: [S; 3] = std::array::from_fn(|i| (t_a[i][1] + t_b[i][1]) * 0.5);
     let r3 = cross(&r1, &q);
     let n3 = dot(&r3, &r3).sqrt();
@@ -450,19 +464,58 @@ pub fn beam_evaluate_with(
     tangent: Option<&mut [f64]>,
 ) -> Result<f64, KernelError> {
     let Some(t) = tangent else {
-        // The residual alone: first-order derivatives (a seventh of the work).
-        let x: [Dual; HD_N] = std::array::from_fn(|i| Dual::variable(i, u[i]));
-        let d = beam_deformation(reference, &x)?;
+        // The residual alone: first-order derivatives (a fraction of the work).
+        let d = beam_deformation::<Dual>(reference, u)?;
         let pi = local_energy(section, strain, reference.length, &d);
-        residual[..BEAM_DOFS].copy_from_slice(&pi.g);
+        expand(&pi.g, |_, _| 0.0, &mut residual[..BEAM_DOFS], None);
         return Ok(pi.v);
     };
-    let x: [HyperDual; HD_N] = std::array::from_fn(|i| HyperDual::variable(i, u[i]));
-    let d = beam_deformation(reference, &x)?;
+    let d = beam_deformation::<HyperDual>(reference, u)?;
     let pi = local_energy(section, strain, reference.length, &d);
-    residual[..BEAM_DOFS].copy_from_slice(&pi.g);
-    pi.write_hessian(&mut t[..BEAM_DOFS * BEAM_DOFS]);
+    expand(
+        &pi.g,
+        |i, j| pi.hessian(i, j),
+        &mut residual[..BEAM_DOFS],
+        Some(&mut t[..BEAM_DOFS * BEAM_DOFS]),
+    );
     Ok(pi.v)
+}
+
+/// For each of the 12 DOFs `[uₐ, θₐ, u_b, θ_b]`, its reduced variable (`[u_b − uₐ, θₐ,
+/// θ_b]`) and the sign of its derivative: `∂/∂uₐ = −∂/∂Δ`, `∂/∂u_b = ∂/∂Δ`.
+const REDUCED: [(usize, f64); BEAM_DOFS] = [
+    (0, -1.0),
+    (1, -1.0),
+    (2, -1.0),
+    (3, 1.0),
+    (4, 1.0),
+    (5, 1.0),
+    (0, 1.0),
+    (1, 1.0),
+    (2, 1.0),
+    (6, 1.0),
+    (7, 1.0),
+    (8, 1.0),
+];
+
+/// The gradient (and Hessian) in the 12 DOFs of a function of the reduced variables:
+/// `r = Aᵀ g`, `K = Aᵀ H A` with the 0/±1 map `A` of [`REDUCED`] (exact: sign flips only).
+fn expand(
+    gradient: &[f64; HD_N],
+    hessian: impl Fn(usize, usize) -> f64,
+    residual: &mut [f64],
+    tangent: Option<&mut [f64]>,
+) {
+    for (r, &(m, sign)) in residual.iter_mut().zip(&REDUCED) {
+        *r = sign * gradient[m];
+    }
+    if let Some(t) = tangent {
+        for (p, &(mp, sp)) in REDUCED.iter().enumerate() {
+            for (q, &(mq, sq)) in REDUCED.iter().enumerate() {
+                t[p * BEAM_DOFS + q] = sp * sq * hessian(mp, mq);
+            }
+        }
+    }
 }
 
 /// Energy only (plain `f64`, no derivatives).
@@ -472,6 +525,6 @@ pub fn beam_energy(
     reference: &BeamReference,
     u: &[f64; BEAM_DOFS],
 ) -> Result<f64, KernelError> {
-    let d = beam_deformation(reference, u)?;
+    let d = beam_deformation::<f64>(reference, u)?;
     Ok(local_energy(section, strain, reference.length, &d))
 }

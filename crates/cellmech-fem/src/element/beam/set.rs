@@ -299,7 +299,7 @@ impl BeamSet {
                 let r = &self.reference[e];
                 let mut u_e = [0.0; BEAM_DOFS];
                 self.gather(e, u, dof_map, &mut u_e);
-                let d = beam_deformation(r, &self.relative_dofs(e, &u_e))?;
+                let d = beam_deformation::<f64>(r, &self.relative_dofs(e, &u_e))?;
                 let l = r.length;
                 let (ta, tb) = (d.theta_a, d.theta_b);
                 let moment = |x: &[f64; 3], y: &[f64; 3]| {
