@@ -1,6 +1,6 @@
 //! The problem: terms, DOFs, assembler, linear solver and state, and the step driver.
 
-use super::control::{Extrapolation, StepControl};
+use super::control::{Convergence, Extrapolation, IterationMethod, StepControl};
 use super::error::SolveError;
 use super::observer::{IncrementReport, Observer};
 use super::relax::{Relaxation, RelaxationStats};
@@ -344,6 +344,17 @@ impl Problem {
         // A failed attempt is retried from the converged state: the extrapolation may be
         // what made it fail. The next converged increment extrapolates again.
         let mut extrapolate = true;
+        // A quasi-Newton step retries a failed increment with full Newton (a fresh tangent at
+        // every iteration is what a hard increment needs); the next increment after a
+        // converged one returns to the step's method.
+        let newton_control = StepControl {
+            convergence: Convergence {
+                method: IterationMethod::Newton,
+                ..control.convergence
+            },
+            ..*control
+        };
+        let mut full_newton = false;
         // Stop condition: g = monitor - target at the last committed state, and a trial time
         // known to lie beyond the crossing.
         let gap = |p: &Problem| {
@@ -449,7 +460,12 @@ impl Problem {
             for term in &mut self.terms {
                 term.predict(&self.u, &self.dof_map);
             }
-            let outcome = self.newton_increment(&target_u, &target_f, guessed, control, observer);
+            let attempt = if full_newton {
+                &newton_control
+            } else {
+                control
+            };
+            let outcome = self.newton_increment(&target_u, &target_f, guessed, attempt, observer);
             if let (Ok(_), Some(g0), false) = (&outcome, g_prev, across_jump) {
                 if let Some(g) = overshot(gap(self), g0, overshoots) {
                     // Overshot the target: reject, and aim at the crossing.
@@ -472,10 +488,11 @@ impl Problem {
                         final_increment,
                         &target_u,
                         &target_f,
-                        control,
+                        attempt,
                         observer,
                         &mut iterations,
                     );
+                    full_newton = false;
                     if let (true, Some(st), Some(settings)) =
                         (final_increment, stabilization, control.stabilization)
                     {
@@ -553,6 +570,7 @@ impl Problem {
                     self.f_ext = saved_f;
                     observer.on_cutback(time, dt, &reason);
                     extrapolate = false;
+                    full_newton = control.convergence.method != IterationMethod::Newton;
                     dt *= control.cutback;
                     if let Some(st) = &mut self.stabilizer {
                         st.boost();

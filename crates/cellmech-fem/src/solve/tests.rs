@@ -357,6 +357,45 @@ fn bfgs_reaches_the_same_equilibrium_with_fewer_factorisations() {
     assert!(bfgs < newton, "BFGS {bfgs} factorisations, Newton {newton}");
 }
 
+#[test]
+fn a_quasi_newton_step_retries_a_failed_increment_with_full_newton() {
+    // The large-rotation spring in one increment with few iterations allowed: BFGS fails
+    // it, the increment is halved and retried. The retry must be full Newton: its iterations
+    // equal, bit for bit, those of a full-Newton step started with the halved increment.
+    let run = |method: IterationMethod, initial: f64| {
+        let (mut p, mut step) = large_rotation_spring();
+        step.control.initial_increment = initial;
+        step.control.max_increment = 1.0;
+        step.control.convergence.max_iterations = 5;
+        step.control.convergence.method = method;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        (p.u()[3], p.u()[4], rec)
+    };
+    let (x, y, quasi) = run(IterationMethod::Bfgs { max_updates: 10 }, 1.0);
+    let (_, _, newton) = run(IterationMethod::Newton, 0.5);
+    assert_eq!(
+        quasi.cutbacks, 1,
+        "BFGS fails the whole step in 5 iterations"
+    );
+    assert_eq!(newton.cutbacks, 0);
+    let failed = quasi.iterations.len() - quasi.increments.iter().map(|i| i.1).sum::<usize>();
+    let retry = &quasi.iterations[failed..failed + newton.increments[0].1];
+    let reference = &newton.iterations[..newton.increments[0].1];
+    let ratios = |r: &[IterationReport]| {
+        r.iter()
+            .map(|x| (x.residual_ratio, x.energy_ratio))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(ratios(retry), ratios(reference));
+    assert_eq!(quasi.increments[0], newton.increments[0]);
+    // And the step still ends at the closed-form equilibrium.
+    assert!(
+        (1.0 + x - 1.04).abs() < 1e-7 && (y - 0.78).abs() < 1e-7,
+        "{x} {y}"
+    );
+}
+
 /// A monitor that jumps: 1 below `at`, 10 from there on, read from DOF `dof`.
 struct Staircase {
     dof: usize,
