@@ -526,3 +526,29 @@ fn bfgs_iterations_give_the_newton_tension_force_with_fewer_factorisations() {
     eprintln!("coarse tension without MTs: Newton {kn}, BFGS {kb} factorisations");
     assert!(kb < kn, "BFGS {kb} factorisations, Newton {kn}");
 }
+
+#[test]
+fn auto_iteration_gives_the_newton_compression_forces_with_fewer_factorisations() {
+    // `solver.iteration = "auto"` (the default) takes BFGS in the compression's loading
+    // steps: the same forces as full Newton everywhere (both converge to the relative
+    // tolerance 1e-8), with fewer factorisations.
+    let protocol = "kind = \"microplate-compression\"";
+    let newton = scenario("[cell.solver]\niteration = \"newton\"\n", protocol, "").unwrap();
+    let auto = scenario("", protocol, "").unwrap();
+    let (sn, rn, _) = run_case("compression-newton", &newton);
+    let (sa, ra, _) = run_case("compression-auto", &auto);
+    for ((e, pn), (_, pa)) in rn.at_deformations.iter().zip(&ra.at_deformations) {
+        assert!(
+            (pn.force_nn - pa.force_nn).abs() <= 1e-6 * pn.force_nn,
+            "{e}: Newton {} nN, auto {} nN",
+            pn.force_nn,
+            pa.force_nn
+        );
+    }
+    let (kn, ka) = (
+        sn.solver_timings.factorizations,
+        sa.solver_timings.factorizations,
+    );
+    eprintln!("coarse compression: Newton {kn}, auto {ka} factorisations");
+    assert!(ka < kn, "auto {ka} factorisations, Newton {kn}");
+}

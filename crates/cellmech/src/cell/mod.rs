@@ -37,6 +37,9 @@ pub struct BuiltCell {
     /// The base control of every step (viscous stabilisation, iteration method): the
     /// prestress and every protocol step start from it and set their increments.
     pub step_control: cellmech_fem::solve::StepControl,
+    /// Whether the cell's `solver.iteration` is `auto`: a protocol then sets BFGS in the
+    /// loading steps it was measured to pay in (full Newton stays in `step_control`).
+    pub auto_iteration: bool,
     /// The point where an indenter may press (µm) and the surface's outward normal there:
     /// the site the mesh is refined at (`None`: the cell has none).
     pub site: Option<([f64; 3], [f64; 3])>,

@@ -591,15 +591,29 @@ mod tests {
                     built.prestress.control.stabilization,
                     built.step_control.stabilization
                 );
+                // `solver.iteration = "auto"` (the default): full Newton, except BFGS in the
+                // compression's loading steps.
+                use cellmech_fem::solve::IterationMethod;
+                assert!(built.auto_iteration);
+                assert_eq!(
+                    built.step_control.convergence.method,
+                    IterationMethod::Newton
+                );
                 for step in &built.model.steps {
                     assert_eq!(
                         step.control.stabilization, built.step_control.stabilization,
                         "{kind} ({grip}): step {}",
                         step.name
                     );
+                    let expected = if step.name.starts_with("compress-") {
+                        IterationMethod::bfgs()
+                    } else {
+                        IterationMethod::Newton
+                    };
                     assert_eq!(
-                        step.control.convergence.method,
-                        built.step_control.convergence.method
+                        step.control.convergence.method, expected,
+                        "{kind} ({grip}): step {}",
+                        step.name
                     );
                 }
             }

@@ -629,8 +629,10 @@ pub struct SuspendedCell {
     pub coupling: Coupling,
     /// Viscous stabilisation of every analysis step (`None`: off).
     pub stabilization: Option<cellmech_fem::solve::Stabilization>,
-    /// How Newton's corrections after the first are computed in every step.
-    pub iteration: cellmech_fem::solve::IterationMethod,
+    /// How Newton's corrections after the first are computed in every step (`None`:
+    /// `auto`, full Newton except where a protocol measured BFGS to pay:
+    /// [`crate::cell::BuiltCell::auto_iteration`]).
+    pub iteration: Option<cellmech_fem::solve::IterationMethod>,
     /// Whether every step relaxes the beam filaments by their own Newton solves
     /// (`solver.relaxation`, nonlinear elimination).
     pub relaxation: bool,
@@ -656,7 +658,9 @@ impl SuspendedCell {
             stabilization: self.stabilization,
             ..Default::default()
         };
-        control.convergence.method = self.iteration;
+        control.convergence.method = self
+            .iteration
+            .unwrap_or(cellmech_fem::solve::IterationMethod::Newton);
         control.convergence.relaxation = self.relaxation;
         control.convergence.chord_near_convergence = self.chord;
         control
@@ -789,6 +793,7 @@ impl SuspendedCell {
             prestress,
             rotation_hold,
             step_control: self.step_control(),
+            auto_iteration: self.iteration.is_none(),
             site: None,
         })
     }

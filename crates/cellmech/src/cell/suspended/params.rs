@@ -194,7 +194,7 @@ pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
 /// `solver.stabilization` (shared by the cell models).
 pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)");
 /// `solver.iteration` (shared by the cell models).
-pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["newton", "bfgs"]), D::Word("newton"), ANY, "corrections after each increment's first: full Newton (a factorisation per iteration) or quasi-Newton BFGS (the increment's factorisation kept, up to 10 rank-two updates)", "choice (FEBio's default is BFGS)");
+pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["auto", "newton", "bfgs"]), D::Word("auto"), ANY, "corrections after each increment's first: `newton`, full Newton in every step (a factorisation per iteration, chord steps near convergence); `bfgs`, quasi-Newton in every step (the increment's factorisation kept, up to 10 rank-two updates; a failed increment is retried with full Newton); `auto`, BFGS in the microplate compression's loading steps and full Newton everywhere else", "choice, measured ([performance](performance.md#bfgs-where-it-pays-2026-12-04-sixth-session)): BFGS halves the compression's factorisations (fast mesh 86 -> 50, default mesh 111 -> 59; forces within 2e-8, 4e-5 where a cut-back changed the path) but costs cut-backs in tension without AFs and at ~100 % elongation, and moves the AFM curve by 0.8 % (FEBio's default is BFGS)");
 /// `solver.relaxation` (shared by the cell models).
 pub(crate) const SOLVER_RELAXATION: ParamDef = p("solver.relaxation", K::Choice(&["filaments", "off"]), D::Word("filaments"), ANY, "after every global Newton update, each beam filament's own DOFs (the interior nodes of a free MT, the rotations at its ends) are moved to their equilibrium by a local Newton solve with the rest held (nonlinear elimination); the same equilibrium in fewer global iterations, or off", "choice, measured ([performance](performance.md#nonlinear-elimination-of-the-free-filaments)): default tension 74 -> 41 factorisations, compression 258 -> 160, forces within 2e-9");
 /// `solver.chord` (shared by the cell models).
@@ -613,11 +613,13 @@ pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
     })
 }
 
-/// The iteration method of every step from resolved values of [`SUSPENDED_CELL`].
-pub fn iteration_from_values(v: &ParamValues) -> IterationMethod {
+/// The iteration method of every step from resolved values of a cell model's table
+/// (`None`: `auto`, each protocol's measured choice).
+pub fn iteration_from_values(v: &ParamValues) -> Option<IterationMethod> {
     match v.word("solver.iteration") {
-        "bfgs" => IterationMethod::bfgs(),
-        _ => IterationMethod::Newton,
+        "bfgs" => Some(IterationMethod::bfgs()),
+        "newton" => Some(IterationMethod::Newton),
+        _ => None,
     }
 }
 
