@@ -306,7 +306,7 @@ const MIN_FRAME_SINE: f64 = 1e-6;
 /// The corotational kinematics: chord length, extension and local end rotations of an
 /// element with DOF values `u` (order `[uₐ, θₐ, u_b, θ_b]`), as functions of the
 /// [`HD_N`] = 9 reduced variables `[u_b − uₐ, θₐ, θ_b]` when `S` carries derivatives (the
-/// kinematics depend on the translations only through their difference; [`expand`] maps the
+/// kinematics depend on the translations only through their difference; `expand` maps the
 /// derivatives back to the 12 DOFs).
 ///
 /// Errors ([`KernelError::InvertedElement`] with `det_f` the offending measure, so the
