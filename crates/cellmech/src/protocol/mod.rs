@@ -618,5 +618,25 @@ mod tests {
                 }
             }
         }
+        // With filament nodes tied to the gel, `auto` keeps full Newton in the compression.
+        let table = Protocol::table("microplate-compression").unwrap();
+        let values = crate::param::ParamValues::defaults(table);
+        let protocol = Protocol::from_values("microplate-compression", &values).unwrap();
+        let mut cell = SuspendedCell::default();
+        cell.params.mesh.core_divisions = 4;
+        cell.params.mesh.shell_layers = 2;
+        cell.params.mesh.outer_layers = 2;
+        cell.coupling.microtubules_embedded = true;
+        let mut built = cell.build().unwrap();
+        assert!(built.auto_iteration && !built.model.embedded.is_empty());
+        protocol.apply(&mut built).unwrap();
+        for step in &built.model.steps {
+            assert_eq!(
+                step.control.convergence.method,
+                cellmech_fem::solve::IterationMethod::Newton,
+                "embedded MTs: step {}",
+                step.name
+            );
+        }
     }
 }
