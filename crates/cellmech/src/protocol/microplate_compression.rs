@@ -107,8 +107,8 @@ impl MicroplateCompression {
             self.max_increment,
         );
         // `auto`: BFGS in the loading steps of a cell whose filaments are free. Filament
-        // nodes tied to the gel snap through under compression, and there BFGS cost cut-backs
-        // and viscously stabilised increments where full Newton needed none.
+        // nodes tied to the gel snap through under compression; there BFGS was not reliably
+        // cheaper than full Newton and needed more viscously stabilised increments.
         let quasi_newton = cell.auto_iteration && cell.model.embedded.is_empty();
         let steps = &mut cell.model.steps;
         let mut previous = 0.0;
