@@ -306,8 +306,8 @@ const MIN_FRAME_SINE: f64 = 1e-6;
 /// The corotational kinematics: chord length, extension and local end rotations of an
 /// element with DOF values `u` (order `[uₐ, θₐ, u_b, θ_b]`), as functions of the
 /// [`HD_N`] = 9 reduced variables `[u_b − uₐ, θₐ, θ_b]` when `S` carries derivatives (the
-/// kinematics depend on the translations only through their difference; `expand` maps the
-/// derivatives back to the 12 DOFs).
+/// kinematics depend on the translations only through their difference; `expand_gradient`
+/// and `expand_hessian` map the derivatives back to the 12 DOFs).
 ///
 /// Errors ([`KernelError::InvertedElement`] with `det_f` the offending measure, so the
 /// solver cuts the increment): a chord shorter than 1e-9 L (`det_f = ℓ/L`), a degenerate
@@ -467,17 +467,15 @@ pub fn beam_evaluate_with(
         // The residual alone: first-order derivatives (a fraction of the work).
         let d = beam_deformation::<Dual>(reference, u)?;
         let pi = local_energy(section, strain, reference.length, &d);
-        expand(&pi.g, |_, _| 0.0, &mut residual[..BEAM_DOFS], None);
+        expand_gradient(&pi.g, &mut residual[..BEAM_DOFS]);
         return Ok(pi.v);
     };
     let d = beam_deformation::<HyperDual>(reference, u)?;
     let pi = local_energy(section, strain, reference.length, &d);
-    expand(
-        &pi.g,
-        |i, j| pi.hessian(i, j),
-        &mut residual[..BEAM_DOFS],
-        Some(&mut t[..BEAM_DOFS * BEAM_DOFS]),
-    );
+    expand_gradient(&pi.g, &mut residual[..BEAM_DOFS]);
+    let mut hessian = [0.0; HD_N * HD_N];
+    pi.write_hessian(&mut hessian);
+    expand_hessian(&hessian, &mut t[..BEAM_DOFS * BEAM_DOFS]);
     Ok(pi.v)
 }
 
@@ -498,22 +496,20 @@ const REDUCED: [(usize, f64); BEAM_DOFS] = [
     (8, 1.0),
 ];
 
-/// The gradient (and Hessian) in the 12 DOFs of a function of the reduced variables:
-/// `r = Aᵀ g`, `K = Aᵀ H A` with the 0/±1 map `A` of [`REDUCED`] (exact: sign flips only).
-fn expand(
-    gradient: &[f64; HD_N],
-    hessian: impl Fn(usize, usize) -> f64,
-    residual: &mut [f64],
-    tangent: Option<&mut [f64]>,
-) {
+/// The gradient in the 12 DOFs of a function of the reduced variables: `r = Aᵀ g` with the
+/// 0/±1 map `A` of [`REDUCED`] (exact: sign flips only).
+fn expand_gradient(gradient: &[f64; HD_N], residual: &mut [f64]) {
     for (r, &(m, sign)) in residual.iter_mut().zip(&REDUCED) {
         *r = sign * gradient[m];
     }
-    if let Some(t) = tangent {
-        for (p, &(mp, sp)) in REDUCED.iter().enumerate() {
-            for (q, &(mq, sq)) in REDUCED.iter().enumerate() {
-                t[p * BEAM_DOFS + q] = sp * sq * hessian(mp, mq);
-            }
+}
+
+/// The Hessian in the 12 DOFs of a function of the reduced variables: `K = Aᵀ H A`, from
+/// the full row-major `H` (`HD_N × HD_N`).
+fn expand_hessian(hessian: &[f64; HD_N * HD_N], tangent: &mut [f64]) {
+    for (p, &(mp, sp)) in REDUCED.iter().enumerate() {
+        for (q, &(mq, sq)) in REDUCED.iter().enumerate() {
+            tangent[p * BEAM_DOFS + q] = sp * sq * hessian[mp * HD_N + mq];
         }
     }
 }
