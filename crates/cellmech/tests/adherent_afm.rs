@@ -101,6 +101,32 @@ fn bad_sites_and_tips_are_clear_errors_before_solving() {
     assert!(e.contains("adherent"), "{e}");
 }
 
+#[test]
+fn the_contact_tangent_key_reaches_the_tip() {
+    use cellmech_fem::contact::CurvatureTangent;
+    let tip_tangent = |protocol: AfmIndentation| {
+        let experiment = Experiment::new(
+            CellModel::Adherent(coarse_cell()),
+            Protocol::AfmIndentation(protocol),
+        );
+        let analysis = experiment.analysis().unwrap();
+        let tip = analysis
+            .model
+            .tools
+            .iter()
+            .find(|t| t.name == "tip")
+            .unwrap();
+        tip.curvature_tangent
+    };
+    assert_eq!(
+        tip_tangent(AfmIndentation::default()),
+        CurvatureTangent::Lagged
+    );
+    let mut consistent = AfmIndentation::default();
+    consistent.contact_tangent = CurvatureTangent::Consistent;
+    assert_eq!(tip_tangent(consistent), CurvatureTangent::Consistent);
+}
+
 /// Runs the coarse cell's AFM test at `site` to `depth` (µm) and returns the results.
 fn indent(
     site: IndentationSite,

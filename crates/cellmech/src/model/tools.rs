@@ -15,7 +15,7 @@
 //!   of the whole body.
 
 use cellmech_fem::contact::{
-    scalar_name, ContactError, ContactKind, RigidContact, ToolScalar, ToolShape,
+    scalar_name, ContactError, ContactKind, CurvatureTangent, RigidContact, ToolScalar, ToolShape,
 };
 use cellmech_fem::mesh::Mesh;
 use cellmech_fem::solve::{Monitor, Step, StopCondition};
@@ -48,6 +48,8 @@ pub struct ToolSpec {
     pub penalty: f64,
     /// Penetration / bond-gap tolerance (µm).
     pub tolerance: f64,
+    /// Which pressure the tangent's curvature term of a frictionless contact uses.
+    pub curvature_tangent: CurvatureTangent,
 }
 
 /// A tool's motion over one step.
@@ -185,6 +187,7 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
                     tool.tolerance,
                     program,
                 )?
+                .with_curvature_tangent(tool.curvature_tangent)
             } else {
                 RigidContact::on_faces(
                     tool.name.clone(),
@@ -197,6 +200,7 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
                     tool.tolerance,
                     program,
                 )?
+                .with_curvature_tangent(tool.curvature_tangent)
             };
             Ok(Box::new(term) as Box<dyn Term>)
         })

@@ -409,6 +409,7 @@ impl PoleTest {
                 faces: Vec::new(),
                 penalty: default_penalty(&cell.model.materials, &cell.model.mesh, nodes),
                 tolerance: default_tolerance(&cell.model.mesh),
+                curvature_tangent: Default::default(),
             });
             handle
         });

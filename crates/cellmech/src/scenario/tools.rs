@@ -232,6 +232,7 @@ pub(super) fn resolve_tools(
             faces: Vec::new(),
             penalty,
             tolerance,
+            curvature_tangent: Default::default(),
         });
     }
     Ok(tools)
