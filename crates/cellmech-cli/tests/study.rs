@@ -326,6 +326,30 @@ fn the_adherent_afm_studies_stop_at_1_um_with_their_named_subsets_and_components
 }
 
 #[test]
+fn the_adherent_sites_study_pairs_each_site_with_its_own_control() {
+    let o = cellmech(&["study", "--list"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("adherent-afm-sites"));
+    let o = cellmech(&["study", "adherent-afm-sites", "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let cases: Vec<&str> = text.lines().filter(|l| !l.starts_with(' ')).collect();
+    let mut expected = Vec::new();
+    for site in ["apex", "receptor"] {
+        for member in [
+            "",
+            ".no-bundles",
+            ".no-microtubule",
+            ".no-bundles-microtubule-intermediate",
+        ] {
+            expected.push(format!("site-{site}{member}"));
+        }
+    }
+    assert_eq!(cases, expected);
+    assert_eq!(text.matches("protocol.site = \"receptor\"").count(), 4, "{text}");
+    assert_eq!(text.matches("protocol.contact = \"faces\"").count(), 8, "{text}");
+}
+
+#[test]
 fn a_modulus_study_writes_its_tornado_chart() {
     let dir = scratch("tornado");
     let study = dir.join("study.toml");

@@ -74,6 +74,11 @@ pub const BUILTIN: &[BuiltinStudy] = &[
         summary: "adherent cell, AFM at the apex to 1 um with each component's modulus at 50 % and 150 % (13 cases)",
         text: include_str!("../../../../studies/adherent-afm-modulus.toml"),
     },
+    BuiltinStudy {
+        name: "adherent-afm-sites",
+        summary: "adherent cell, AFM at the apex and at a receptor to 1 um, each with ABs, MTs or every filament removed (8 cases)",
+        text: include_str!("../../../../studies/adherent-afm-sites.toml"),
+    },
 ];
 
 /// The built-in study with this name.
