@@ -18,6 +18,7 @@ use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMatRef, Tripl
 use faer::{Conj, MatMut, Par, Side, Spec};
 
 use super::ordering::{cholesky_fill, is_permutation, nested_dissection, FillOrdering};
+use super::tree_cholesky::{TreeCholesky, WorkspacePool};
 use super::{FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern};
 
 /// Facts about the ordering and symbolic factorisation of the last `analyze`.
@@ -42,9 +43,14 @@ pub struct AnalysisInfo {
     /// Wall time of the symbolic factorisation, s.
     pub symbolic_seconds: f64,
     /// Floating-point operations of one numeric Cholesky, `Σ_j c_j²` over the columns of L
-    /// (`c_j`: stored entries of column j, diagonal included); decides whether the numeric
-    /// factorisation runs in parallel (see [`FaerSparseSolver::with_parallel_min_flops`]).
+    /// (`c_j`: stored entries of column j, diagonal included); decides whether the
+    /// pivoted factorisation and the solves run in parallel (see
+    /// [`FaerSparseSolver::with_parallel_min_flops`]).
     pub factor_flops: f64,
+    /// Whether the Cholesky factorisations run on the elimination tree's subtrees
+    /// concurrently (`tree_cholesky`: the subtrees' tasks on faer's symbolic factor; false
+    /// only if the symbolic factor is not one it can walk, then faer's own numeric step).
+    pub tree_factorisation: bool,
 }
 
 /// Mixed precision: a solve is refined until its last correction is at most this fraction
@@ -91,6 +97,10 @@ struct Analysis {
     /// Fill-reducing permutation, `perm[new] = old`.
     perm: Vec<usize>,
     symbolic: SymbolicCholesky<usize>,
+    /// The tree-parallel numeric Cholesky on `symbolic` (None: faer's numeric step).
+    tree: Option<TreeCholesky>,
+    tree_workspaces: WorkspacePool<f64>,
+    tree_workspaces32: WorkspacePool<f32>,
     l_values: Vec<f64>,
     subdiag: Vec<f64>,
     bk_fwd: Vec<usize>,
@@ -244,6 +254,18 @@ impl FaerSparseSolver {
         }
     }
 
+    /// Threads the tree-parallel Cholesky may use: the solver's limit and the calling pool's
+    /// size (its arithmetic, hence its result, is the same for any count).
+    fn tree_threads(&self, a: &Analysis) -> usize {
+        let available = rayon::current_num_threads();
+        match self.threads {
+            0 => available,
+            t => t.min(available),
+        }
+        .min(a.max_threads)
+        .max(1)
+    }
+
     /// Chooses the fill-reducing ordering (takes effect at the next `analyze`).
     pub fn with_ordering(mut self, ordering: FillOrdering) -> Self {
         self.ordering = ordering;
@@ -273,11 +295,17 @@ impl FaerSparseSolver {
     }
 
     fn try_llt(&mut self, values: &[f64]) -> Result<FactorInfo, String> {
-        let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
+        let analysis = self.analysis.as_ref().ok_or("not analysed")?;
+        let (par, threads) = (self.factor_par(analysis), self.tree_threads(analysis));
         let a = self.analysis.as_mut().ok_or("not analysed")?;
-        let mat = csc_ref(&a.pattern, values);
-        numeric_llt(&a.symbolic, &mut a.l_values, mat, par, &mut a.mem)
-            .map_err(|e| format!("Cholesky: {e:?}"))?;
+        match a.tree.as_ref() {
+            Some(tree) => tree.factorize(&mut a.l_values, values, threads, &a.tree_workspaces)?,
+            None => {
+                let mat = csc_ref(&a.pattern, values);
+                numeric_llt(&a.symbolic, &mut a.l_values, mat, par, &mut a.mem)
+                    .map_err(|e| format!("Cholesky: {e:?}"))?;
+            }
+        }
         let sym = supernodal(&a.symbolic)?;
         let l = SupernodalLltRef::new(sym, &a.l_values);
         for s in 0..sym.n_supernodes() {
@@ -480,7 +508,14 @@ impl LinearSolver for FaerSparseSolver {
         let factor_flops = widths
             .flat_map(|(w, below)| (0..w).map(move |k| ((w - k + below) as f64).powi(2)))
             .sum();
+        // The tree walks faer's symbolic factor, in faer's own order of the columns.
+        let factor_perm: Vec<usize> = match symbolic.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..n).collect(),
+        };
+        let tree = TreeCholesky::new(pattern, &factor_perm, sym).ok();
         let info = AnalysisInfo {
+            tree_factorisation: tree.is_some(),
             ordering: self.ordering,
             n,
             nnz_a: pattern.nnz(),
@@ -529,6 +564,9 @@ impl LinearSolver for FaerSparseSolver {
             bk_fwd: vec![0; n],
             bk_inv: vec![0; n],
             symbolic,
+            tree,
+            tree_workspaces: WorkspacePool::default(),
+            tree_workspaces32: WorkspacePool::default(),
             mem,
             max_threads,
             values: Vec::new(),
@@ -690,7 +728,8 @@ impl FaerSparseSolver {
     /// 1/√A_jj); fails on a diagonal entry that is not positive or a pivot `L_kk²` below
     /// [`MIXED_PIVOT_FLOOR`] (or the solver's pivot tolerance, if larger).
     fn try_llt32(&mut self, values: &[f64]) -> Result<FactorInfo, String> {
-        let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
+        let analysis = self.analysis.as_ref().ok_or("not analysed")?;
+        let (par, threads) = (self.factor_par(analysis), self.tree_threads(analysis));
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         for c in 0..a.n {
             let d = values[a.diag_pos[c]];
@@ -705,9 +744,16 @@ impl FaerSparseSolver {
                 a.values32[k] = scaled as f32;
             }
         }
-        let mat = csc_ref(&a.pattern, &a.values32);
-        numeric_llt(&a.symbolic, &mut a.l_values32, mat, par, &mut a.mem)
-            .map_err(|e| format!("single-precision Cholesky: {e:?}"))?;
+        match a.tree.as_ref() {
+            Some(tree) => tree
+                .factorize(&mut a.l_values32, &a.values32, threads, &a.tree_workspaces32)
+                .map_err(|e| format!("single-precision {e}"))?,
+            None => {
+                let mat = csc_ref(&a.pattern, &a.values32);
+                numeric_llt(&a.symbolic, &mut a.l_values32, mat, par, &mut a.mem)
+                    .map_err(|e| format!("single-precision Cholesky: {e:?}"))?;
+            }
+        }
         let sym = supernodal(&a.symbolic)?;
         let l = SupernodalLltRef::new(sym, &a.l_values32);
         let floor = self.pivot_tolerance.max(MIXED_PIVOT_FLOOR);

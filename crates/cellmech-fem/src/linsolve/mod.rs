@@ -9,6 +9,7 @@ mod dense;
 mod faer_solver;
 pub mod ordering;
 mod pattern;
+mod tree_cholesky;
 pub mod test_matrices;
 #[cfg(test)]
 mod tests;

@@ -1,0 +1,716 @@
+//! Numeric supernodal Cholesky that runs the independent subtrees of the elimination tree
+//! concurrently, on faer's symbolic factor and into faer's value layout (so faer's solves
+//! use the result unchanged).
+//!
+//! faer 0.24's supernodal numeric factorisation is a sequential loop over the supernodes;
+//! its `Par` only splits the dense kernels inside each supernode, which does not pay on
+//! 2 cores below about 1e10 flops (`docs/performance.md`, "Threads"). The parallelism a
+//! nested-dissection factorisation offers is the tree's: a supernode is updated only by
+//! its descendants (left-looking), so two subtrees share nothing until their common
+//! ancestor. Here each supernode `s` is computed left-looking, as faer does:
+//!
+//! 1. its block (`m × w`: the diagonal block, then the rows of its pattern) gets A's
+//!    entries of its columns;
+//! 2. every descendant `d` whose pattern has rows among `s`'s columns subtracts
+//!    `L_d[rows ≥ begin(s)] · L_d[rows in s]ᵀ`, formed by a dense product into a workspace
+//!    and scattered into the block (faer gathers inside its product; that kernel is not
+//!    public);
+//! 3. the diagonal block is factorised densely and the rows below are solved against it.
+//!
+//! The schedule walks the tree: a subtree with enough flops forks its children into two
+//! groups of about equal flops (`rayon::join`), smaller subtrees are done in order. Each
+//! supernode's arithmetic is the same whatever the schedule, so the factor is bitwise the
+//! same on any number of threads.
+
+use std::sync::Mutex;
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::{Accum, MatMut, MatRef, Par, Spec};
+
+use super::SparsityPattern;
+
+/// Scalars the factorisation runs in (double, and single for mixed precision).
+pub(crate) trait TreeScalar:
+    faer::traits::RealField
+    + Copy
+    + Send
+    + Sync
+    + std::ops::SubAssign
+    + std::ops::AddAssign
+{
+    const ZERO: Self;
+    const ONE: Self;
+}
+
+impl TreeScalar for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+}
+
+impl TreeScalar for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+}
+
+/// Subtrees with fewer flops (`Σ c_j²` of their columns) are factorised by one task.
+const MIN_FORK_FLOPS: f64 = 2e6;
+
+/// Updates into one supernode with at least this many flops are split by columns into
+/// two tasks (recursively, [`MAX_UPDATE_SPLITS`] times at most).
+const MIN_SPLIT_UPDATE_FLOPS: f64 = 2e7;
+
+/// Most halvings of one supernode's update columns (at most 2^this tasks, each with its
+/// own product buffer).
+const MAX_UPDATE_SPLITS: usize = 2;
+
+/// A supernode of the top of the tree (factorised while nothing else runs) with at least
+/// this many flops of its own uses the pool's threads in its dense kernels.
+const MIN_DENSE_PARALLEL_FLOPS: f64 = 5e7;
+
+/// The structure, computed once per pattern.
+pub(crate) struct TreeCholesky {
+    n: usize,
+    /// Lower triangle of the permuted matrix by column: row and position in the caller's
+    /// value array.
+    a_ptr: Vec<usize>,
+    a_row: Vec<usize>,
+    a_src: Vec<usize>,
+    begin: Vec<usize>,
+    end: Vec<usize>,
+    pat_ptr: Vec<usize>,
+    pat: Vec<usize>,
+    val_ptr: Vec<usize>,
+    /// Updates into supernode s: `(d, i0, i1)`, rows `i0..i1` of d's pattern are columns
+    /// of s (and rows `i0..` are the rows the update reaches).
+    upd_ptr: Vec<usize>,
+    upd: Vec<(usize, usize, usize)>,
+    children: Vec<Vec<usize>>,
+    roots: Vec<usize>,
+    /// A postorder of the supernodes; the subtree of s is `post[first[s]..=position[s]]`.
+    post: Vec<usize>,
+    first: Vec<usize>,
+    position: Vec<usize>,
+    own_flops: Vec<f64>,
+    subtree_flops: Vec<f64>,
+    /// Flops of the updates each supernode receives (`2 · rows · columns · width`).
+    update_flops: Vec<f64>,
+    /// Largest update product (rows × columns) and largest supernode width.
+    max_product: usize,
+    max_width: usize,
+}
+
+/// One task's scratch: the row map, the update product and the dense kernels' stack.
+pub(crate) struct Workspace<T> {
+    map: Vec<usize>,
+    product: Vec<T>,
+    mem: MemBuffer,
+}
+
+/// Workspaces kept between factorisations (one per concurrent task).
+pub(crate) struct WorkspacePool<T> {
+    free: Mutex<Vec<Workspace<T>>>,
+}
+
+impl<T> Default for WorkspacePool<T> {
+    fn default() -> Self {
+        WorkspacePool {
+            free: Mutex::new(Vec::new()),
+        }
+    }
+}
+
+/// The factor's values, shared by the tasks: each supernode writes only its own block, and
+/// reads only the blocks of its descendants, which are complete before it starts.
+struct SharedValues<T> {
+    ptr: *mut T,
+    len: usize,
+}
+
+// SAFETY: the blocks written concurrently are disjoint (one per supernode, each written by
+// the one task that factorises it), and a block is read only by its ancestors, which run
+// after the task that wrote it has joined.
+unsafe impl<T: Send> Sync for SharedValues<T> {}
+
+impl<T> SharedValues<T> {
+    /// SAFETY: `range` must be the block of a supernode whose task is the caller.
+    unsafe fn block_mut(&self, range: std::ops::Range<usize>) -> &mut [T] {
+        debug_assert!(range.end <= self.len);
+        // SAFETY: in bounds, and no other task touches this block now (caller's contract).
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+
+    /// SAFETY: `range` must be the block of a finished descendant of the caller's supernode.
+    unsafe fn block(&self, range: std::ops::Range<usize>) -> &[T] {
+        debug_assert!(range.end <= self.len);
+        // SAFETY: in bounds, and its writer has finished (caller's contract).
+        unsafe { std::slice::from_raw_parts(self.ptr.add(range.start), range.len()) }
+    }
+}
+
+fn column_flops(width: usize, below: usize) -> f64 {
+    (0..width).map(|k| ((width - k + below) as f64).powi(2)).sum()
+}
+
+impl TreeCholesky {
+    /// The structure for `pattern` (lower CSC, original order) whose supernodal symbolic
+    /// factor faer computed as `sym` with the permutation `perm` (`perm[new] = old`).
+    pub(crate) fn new(
+        pattern: &SparsityPattern,
+        perm: &[usize],
+        sym: &SymbolicSupernodalCholesky<usize>,
+    ) -> Result<Self, String> {
+        let n = pattern.n;
+        let mut inv = vec![0usize; n];
+        for (new, &old) in perm.iter().enumerate() {
+            inv[old] = new;
+        }
+        let mut entries: Vec<(usize, usize, usize)> = Vec::with_capacity(pattern.nnz());
+        for c in 0..n {
+            for k in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                let (p, q) = (inv[pattern.row_idx[k]], inv[c]);
+                entries.push((p.min(q), p.max(q), k));
+            }
+        }
+        entries.sort_unstable();
+        let mut a_ptr = vec![0usize; n + 1];
+        for &(j, _, _) in &entries {
+            a_ptr[j + 1] += 1;
+        }
+        for j in 0..n {
+            a_ptr[j + 1] += a_ptr[j];
+        }
+        let a_row = entries.iter().map(|e| e.1).collect();
+        let a_src = entries.iter().map(|e| e.2).collect();
+        let ns = sym.n_supernodes();
+        let begin = sym.supernode_begin().to_vec();
+        let end = sym.supernode_end().to_vec();
+        let mut pat = Vec::new();
+        let mut pat_ptr = vec![0usize; ns + 1];
+        for s in 0..ns {
+            pat_ptr[s] = pat.len();
+            pat.extend_from_slice(sym.supernode(s).pattern());
+        }
+        pat_ptr[ns] = pat.len();
+        let val_ptr = sym.col_ptr_for_val().to_vec();
+        let mut col_to_sn = vec![0usize; n];
+        for s in 0..ns {
+            col_to_sn[begin[s]..end[s]].fill(s);
+        }
+        // Updates: each run of a pattern's rows inside one ancestor's columns.
+        let mut lists: Vec<Vec<(usize, usize, usize)>> = vec![Vec::new(); ns];
+        let mut parent = vec![None; ns];
+        let (mut max_product, mut max_width) = (0usize, 0usize);
+        for d in 0..ns {
+            let p = &pat[pat_ptr[d]..pat_ptr[d + 1]];
+            let mut i0 = 0;
+            while i0 < p.len() {
+                let s = col_to_sn[p[i0]];
+                if s <= d {
+                    return Err(format!("supernode {d} updates supernode {s}: not a postorder"));
+                }
+                let mut i1 = i0;
+                while i1 < p.len() && p[i1] < end[s] {
+                    i1 += 1;
+                }
+                if parent[d].is_none() {
+                    parent[d] = Some(s);
+                }
+                lists[s].push((d, i0, i1));
+                max_product = max_product.max((p.len() - i0) * (i1 - i0));
+                i0 = i1;
+            }
+            max_width = max_width.max(end[d] - begin[d]);
+        }
+        let mut update_flops = vec![0.0; ns];
+        for (s, list) in lists.iter().enumerate() {
+            for &(d, i0, i1) in list {
+                let rows = pat_ptr[d + 1] - pat_ptr[d] - i0;
+                update_flops[s] += 2.0 * (rows * (i1 - i0) * (end[d] - begin[d])) as f64;
+            }
+        }
+        let mut upd_ptr = vec![0usize; ns + 1];
+        let mut upd = Vec::new();
+        for (s, list) in lists.into_iter().enumerate() {
+            upd.extend(list);
+            upd_ptr[s + 1] = upd.len();
+        }
+        let mut children = vec![Vec::new(); ns];
+        let mut roots = Vec::new();
+        let own_flops: Vec<f64> = (0..ns)
+            .map(|s| column_flops(end[s] - begin[s], pat_ptr[s + 1] - pat_ptr[s]))
+            .collect();
+        let mut subtree_flops = own_flops.clone();
+        for s in 0..ns {
+            match parent[s] {
+                Some(p) => {
+                    children[p].push(s);
+                    subtree_flops[p] += subtree_flops[s];
+                }
+                None => roots.push(s),
+            }
+        }
+        // A postorder of the supernodal tree (faer's numbering need not be one), so that
+        // every subtree is a contiguous range of it.
+        let mut post = Vec::with_capacity(ns);
+        let mut position = vec![0usize; ns];
+        let mut first = vec![0usize; ns];
+        let mut stack: Vec<(usize, usize)> = roots.iter().rev().map(|&r| (r, 0)).collect();
+        while let Some((s, next)) = stack.pop() {
+            if next == 0 {
+                first[s] = post.len();
+            }
+            if let Some(&c) = children[s].get(next) {
+                stack.push((s, next + 1));
+                stack.push((c, 0));
+            } else {
+                position[s] = post.len();
+                post.push(s);
+            }
+        }
+        // Every update must come from inside the supernode's subtree (the tasks' contract).
+        for s in 0..ns {
+            for &(d, _, _) in &upd[upd_ptr[s]..upd_ptr[s + 1]] {
+                if position[d] < first[s] || position[d] >= position[s] {
+                    return Err(format!("supernode {d} updates {s} from outside its subtree"));
+                }
+            }
+        }
+        Ok(TreeCholesky {
+            n,
+            a_ptr,
+            a_row,
+            a_src,
+            begin,
+            end,
+            pat_ptr,
+            pat,
+            val_ptr,
+            upd_ptr,
+            upd,
+            children,
+            roots,
+            post,
+            first,
+            position,
+            own_flops,
+            subtree_flops,
+            update_flops,
+            max_product,
+            max_width,
+        })
+    }
+
+    fn workspace<T: TreeScalar>(&self, pool: &WorkspacePool<T>) -> Result<Workspace<T>, String> {
+        if let Some(ws) = pool.free.lock().map_err(|_| "workspace pool poisoned")?.pop() {
+            return Ok(ws);
+        }
+        let req = StackReq::any_of(&[
+            cholesky_in_place_scratch::<T>(self.max_width, Par::Seq, Spec::default()),
+            cholesky_in_place_scratch::<T>(self.max_width, Par::rayon(0), Spec::default()),
+        ]);
+        Ok(Workspace {
+            map: vec![usize::MAX; self.n],
+            product: vec![T::ZERO; self.max_product],
+            mem: MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?,
+        })
+    }
+
+    fn give_back<T>(pool: &WorkspacePool<T>, ws: Workspace<T>) {
+        if let Ok(mut free) = pool.free.lock() {
+            free.push(ws);
+        }
+    }
+
+    /// Factorises the matrix with lower-triangle `values` (the pattern's order) into `l`
+    /// (faer's supernodal layout of the symbolic factor this was built from). `threads`:
+    /// most tasks at once (1: in order on the calling thread). Fails on a pivot that is
+    /// not positive (the matrix is not positive definite).
+    pub(crate) fn factorize<T: TreeScalar>(
+        &self,
+        l: &mut [T],
+        values: &[T],
+        threads: usize,
+        pool: &WorkspacePool<T>,
+    ) -> Result<(), String> {
+        if l.len() != self.val_ptr[self.val_ptr.len() - 1] {
+            return Err("factor storage of the wrong size".into());
+        }
+        let shared = SharedValues {
+            ptr: l.as_mut_ptr(),
+            len: l.len(),
+        };
+        let mut ws = self.workspace(pool)?;
+        let forking = threads > 1;
+        let dense = if forking { Par::rayon(threads) } else { Par::Seq };
+        let result = self.group(&self.roots, &shared, values, &mut ws, pool, forking, dense);
+        Self::give_back(pool, ws);
+        result
+    }
+
+    /// Factorises the subtrees rooted at `roots` (none an ancestor of another).
+    fn group<T: TreeScalar>(
+        &self,
+        roots: &[usize],
+        shared: &SharedValues<T>,
+        values: &[T],
+        ws: &mut Workspace<T>,
+        pool: &WorkspacePool<T>,
+        forking: bool,
+        dense: Par,
+    ) -> Result<(), String> {
+        let flops: f64 = roots.iter().map(|&r| self.subtree_flops[r]).sum();
+        if !forking || flops < MIN_FORK_FLOPS {
+            for &r in roots {
+                for &s in &self.post[self.first[r]..=self.position[r]] {
+                    self.supernode(s, shared, values, ws, pool, Par::Seq)?;
+                }
+            }
+            return Ok(());
+        }
+        if roots.len() == 1 {
+            let r = roots[0];
+            // Down the chain of single children, then fork below it.
+            let mut chain = vec![r];
+            let mut top = r;
+            while self.children[top].len() == 1 {
+                top = self.children[top][0];
+                chain.push(top);
+            }
+            self.group(&self.children[top], shared, values, ws, pool, forking, dense)?;
+            for &s in chain.iter().rev() {
+                let par = if self.own_flops[s] >= MIN_DENSE_PARALLEL_FLOPS {
+                    dense
+                } else {
+                    Par::Seq
+                };
+                self.supernode(s, shared, values, ws, pool, par)?;
+            }
+            return Ok(());
+        }
+        // Two groups of about equal flops (children of one node are in increasing order).
+        let mut sorted: Vec<usize> = roots.to_vec();
+        sorted.sort_unstable_by(|a, b| self.subtree_flops[*b].total_cmp(&self.subtree_flops[*a]));
+        let (mut left, mut right) = (Vec::new(), Vec::new());
+        let (mut fl, mut fr) = (0.0, 0.0);
+        for r in sorted {
+            if fl <= fr {
+                fl += self.subtree_flops[r];
+                left.push(r);
+            } else {
+                fr += self.subtree_flops[r];
+                right.push(r);
+            }
+        }
+        let (a, b) = rayon::join(
+            || self.group(&left, shared, values, ws, pool, forking, dense),
+            || {
+                let mut own = self.workspace(pool)?;
+                let r = self.group(&right, shared, values, &mut own, pool, forking, dense);
+                Self::give_back(pool, own);
+                r
+            },
+        );
+        a.and(b)
+    }
+
+    /// Supernode `s`, left-looking (module notes).
+    fn supernode<T: TreeScalar>(
+        &self,
+        s: usize,
+        shared: &SharedValues<T>,
+        values: &[T],
+        ws: &mut Workspace<T>,
+        pool: &WorkspacePool<T>,
+        par: Par,
+    ) -> Result<(), String> {
+        let (b, e) = (self.begin[s], self.end[s]);
+        let w = e - b;
+        let pattern = &self.pat[self.pat_ptr[s]..self.pat_ptr[s + 1]];
+        let m = w + pattern.len();
+        // SAFETY: this task factorises s; nobody else touches its block now.
+        let block = unsafe { shared.block_mut(self.val_ptr[s]..self.val_ptr[s + 1]) };
+        block.fill(T::ZERO);
+        for (t, &r) in pattern.iter().enumerate() {
+            ws.map[r] = w + t;
+        }
+        for j in b..e {
+            let column = &mut block[(j - b) * m..(j - b + 1) * m];
+            for idx in self.a_ptr[j]..self.a_ptr[j + 1] {
+                let i = self.a_row[idx];
+                let local = if i < e { i - b } else { ws.map[i] };
+                column[local] += values[self.a_src[idx]];
+            }
+        }
+        let Workspace { map, product, mem } = ws;
+        self.updates(s, 0, w, MAX_UPDATE_SPLITS, block, map, product, shared, pool)?;
+        for &r in pattern {
+            map[r] = usize::MAX;
+        }
+        let mat = MatMut::from_column_major_slice_mut(block, m, w);
+        let (mut top, bottom) = mat.split_at_row_mut(w);
+        let mut stack = MemStack::new(mem);
+        cholesky_in_place(top.as_mut(), Default::default(), par, &mut stack, Spec::default())
+            .map_err(|err| format!("Cholesky: supernode {s}: {err:?}"))?;
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            top.as_ref(),
+            bottom.transpose_mut(),
+            par,
+        );
+        Ok(())
+    }
+
+    /// Subtracts every descendant's update from the columns `lo..hi` of supernode `s`'s
+    /// block (`part` holds those columns). A range with many update flops is halved and
+    /// the halves run as two tasks (they write disjoint columns); the halving depends on
+    /// the structure only, so the arithmetic is the same on any number of threads.
+    #[allow(clippy::too_many_arguments)]
+    fn updates<T: TreeScalar>(
+        &self,
+        s: usize,
+        lo: usize,
+        hi: usize,
+        splits: usize,
+        part: &mut [T],
+        map: &[usize],
+        product: &mut [T],
+        shared: &SharedValues<T>,
+        pool: &WorkspacePool<T>,
+    ) -> Result<(), String> {
+        let (b, e) = (self.begin[s], self.end[s]);
+        let w = e - b;
+        let m = w + self.pat_ptr[s + 1] - self.pat_ptr[s];
+        let share = self.update_flops[s] * (hi - lo) as f64 / w as f64;
+        if splits > 0 && share >= MIN_SPLIT_UPDATE_FLOPS && hi - lo >= 2 {
+            let mid = lo + (hi - lo) / 2;
+            let (left, right) = part.split_at_mut((mid - lo) * m);
+            let mut other = self.workspace(pool)?;
+            let (a, c) = rayon::join(
+                || self.updates(s, lo, mid, splits - 1, left, map, product, shared, pool),
+                || {
+                    let other = &mut other.product;
+                    self.updates(s, mid, hi, splits - 1, right, map, other, shared, pool)
+                },
+            );
+            Self::give_back(pool, other);
+            return a.and(c);
+        }
+        for &(d, i0, i1) in &self.upd[self.upd_ptr[s]..self.upd_ptr[s + 1]] {
+            let wd = self.end[d] - self.begin[d];
+            let pd = &self.pat[self.pat_ptr[d]..self.pat_ptr[d + 1]];
+            // The rows of d's pattern that are columns lo..hi of s.
+            let j0 = i0 + pd[i0..i1].partition_point(|&r| r < b + lo);
+            let j1 = i0 + pd[i0..i1].partition_point(|&r| r < b + hi);
+            if j0 == j1 {
+                continue;
+            }
+            let md = wd + pd.len();
+            // SAFETY: d is a descendant of s (checked in `new`), finished before s started.
+            let ld = unsafe { shared.block(self.val_ptr[d]..self.val_ptr[d + 1]) };
+            let ld = MatRef::from_column_major_slice(ld, md, wd);
+            let (nr, nc) = (pd.len() - j0, j1 - j0);
+            let product = &mut product[..nr * nc];
+            faer::linalg::matmul::matmul(
+                MatMut::from_column_major_slice_mut(product, nr, nc),
+                Accum::Replace,
+                ld.subrows(wd + j0, nr),
+                ld.subrows(wd + j0, nc).transpose(),
+                T::ONE,
+                Par::Seq,
+            );
+            for c in 0..nc {
+                let col = pd[j0 + c] - b - lo;
+                let column = &mut part[col * m..(col + 1) * m];
+                let source = &product[c * nr..(c + 1) * nr];
+                for r in c..nr {
+                    let row = pd[j0 + r];
+                    let local = if row < e { row - b } else { map[row] };
+                    column[local] -= source[r];
+                }
+            }
+        }
+        Ok(())
+    }
+}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linsolve::ordering::{inverse_permutation, nested_dissection};
+    use crate::linsolve::test_matrices::hex_elasticity;
+    use faer::sparse::linalg::cholesky::{
+        factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky,
+        SymbolicCholeskyRaw, SymmetricOrdering,
+    };
+    use faer::sparse::linalg::SupernodalThreshold;
+    use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+    use faer::Side;
+
+    fn symbolic(pattern: &SparsityPattern) -> (SymbolicCholesky<usize>, Vec<usize>) {
+        let perm = nested_dissection(pattern).unwrap();
+        let inv = inverse_permutation(&perm);
+        let n = pattern.n;
+        let structure =
+            SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let ord = SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(&perm, &inv, n));
+        let sym = factorize_symbolic_cholesky(structure, Side::Lower, ord, params).unwrap();
+        let perm = sym.perm().unwrap().arrays().0.to_vec();
+        (sym, perm)
+    }
+
+    fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
+        match sym.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => s,
+            SymbolicCholeskyRaw::Simplicial(_) => panic!("supernodal expected"),
+        }
+    }
+
+    fn faer_factor(sym: &SymbolicCholesky<usize>, pattern: &SparsityPattern, values: &[f64]) -> Vec<f64> {
+        let mut l = vec![0.0; sym.len_val()];
+        let req = sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default());
+        let mut mem = MemBuffer::new(req);
+        let structure =
+            SymbolicSparseColMatRef::new_checked(pattern.n, pattern.n, &pattern.col_ptr, None, &pattern.row_idx);
+        sym.factorize_numeric_llt(
+            &mut l,
+            SparseColMatRef::new(structure, values),
+            Side::Lower,
+            Default::default(),
+            Par::Seq,
+            &mut MemStack::new(&mut mem),
+            Spec::default(),
+        )
+        .unwrap();
+        l
+    }
+
+    fn max_relative_difference(a: &[f64], b: &[f64]) -> f64 {
+        let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+    }
+
+    #[test]
+    fn the_tree_factor_equals_faers_and_is_the_same_on_one_and_two_threads() {
+        let m = hex_elasticity(11, 10, 9, 1.0, 0.3);
+        let (sym, perm) = symbolic(&m.pattern);
+        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let reference = faer_factor(&sym, &m.pattern, &m.values);
+        let pool = WorkspacePool::default();
+        let run = |threads: usize| {
+            let rayon_pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            rayon_pool.install(|| {
+                let mut l = vec![0.0; sym.len_val()];
+                tree.factorize(&mut l, &m.values, threads, &pool).unwrap();
+                l
+            })
+        };
+        let one = run(1);
+        let d1 = max_relative_difference(&one, &reference);
+        assert!(d1 < 1e-12, "1 thread against faer: {d1:e}");
+        let two = run(2);
+        let d = max_relative_difference(&two, &reference);
+        assert!(d < 1e-12, "against faer: {d:e}");
+        assert!(one.iter().zip(&two).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    #[test]
+    fn the_tree_factor_works_in_single_precision() {
+        let m = hex_elasticity(8, 9, 10, 1.0, 0.3);
+        let (sym, perm) = symbolic(&m.pattern);
+        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
+        let mut reference = vec![0.0f32; sym.len_val()];
+        let req = sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Spec::default());
+        let mut mem = MemBuffer::new(req);
+        let structure = SymbolicSparseColMatRef::new_checked(
+            m.pattern.n,
+            m.pattern.n,
+            &m.pattern.col_ptr,
+            None,
+            &m.pattern.row_idx,
+        );
+        sym.factorize_numeric_llt(
+            &mut reference,
+            SparseColMatRef::new(structure, &values32[..]),
+            Side::Lower,
+            Default::default(),
+            Par::Seq,
+            &mut MemStack::new(&mut mem),
+            Spec::default(),
+        )
+        .unwrap();
+        let reference: Vec<f64> = reference.iter().map(|&v| f64::from(v)).collect();
+        let mut l = vec![0.0f32; sym.len_val()];
+        tree.factorize(&mut l, &values32, 2, &WorkspacePool::default()).unwrap();
+        let l: Vec<f64> = l.iter().map(|&v| f64::from(v)).collect();
+        let d = max_relative_difference(&l, &reference);
+        assert!(d < 1e-5, "against faer's single-precision factor: {d:e}");
+    }
+
+    #[test]
+    fn an_indefinite_matrix_fails() {
+        let m = hex_elasticity(9, 8, 8, 1.0, 0.3);
+        let (sym, perm) = symbolic(&m.pattern);
+        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let mut values = m.values.clone();
+        let mean = (0..m.pattern.n).map(|c| values[m.pattern.col_ptr[c]]).sum::<f64>() / m.pattern.n as f64;
+        for c in 0..m.pattern.n {
+            values[m.pattern.col_ptr[c]] -= 0.3 * mean;
+        }
+        let mut l = vec![0.0; sym.len_val()];
+        assert!(tree.factorize(&mut l, &values, 2, &WorkspacePool::default()).is_err());
+    }
+
+    #[test]
+    #[ignore = "times the tree factorisation against faer's sequential one"]
+    fn time_tree_against_faer() {
+        use std::time::Instant;
+        for k in [14, 18, 22] {
+            let m = hex_elasticity(k, k, k, 1.0, 0.3);
+            let (sym, perm) = symbolic(&m.pattern);
+            let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+            let pool = WorkspacePool::default();
+            let mut l = vec![0.0; sym.len_val()];
+            let req = sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default());
+            let mut mem = MemBuffer::new(req);
+            let structure = SymbolicSparseColMatRef::new_checked(
+                m.pattern.n,
+                m.pattern.n,
+                &m.pattern.col_ptr,
+                None,
+                &m.pattern.row_idx,
+            );
+            let mat = SparseColMatRef::new(structure, &m.values[..]);
+            let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+            let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            let (mut t1, mut t2, mut tf) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+            for _ in 0..5 {
+                let t = Instant::now();
+                one.install(|| tree.factorize(&mut l, &m.values, 1, &pool).unwrap());
+                t1 = t1.min(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                two.install(|| tree.factorize(&mut l, &m.values, 2, &pool).unwrap());
+                t2 = t2.min(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                sym.factorize_numeric_llt(&mut l, mat, Side::Lower, Default::default(), Par::Seq, &mut MemStack::new(&mut mem), Spec::default()).unwrap();
+                tf = tf.min(t.elapsed().as_secs_f64());
+            }
+            let mut l1 = vec![0.0; sym.len_val()];
+            one.install(|| tree.factorize(&mut l1, &m.values, 1, &pool).unwrap());
+            let mut l2 = vec![0.0; sym.len_val()];
+            two.install(|| tree.factorize(&mut l2, &m.values, 2, &pool).unwrap());
+            let same = l1.iter().zip(&l2).all(|(a, b)| a.to_bits() == b.to_bits());
+            eprintln!("n {}: 1 and 2 threads bitwise equal: {same}", m.pattern.n);
+            eprintln!(
+                "n {}: faer sequential {tf:.4} s, tree 1 thread {t1:.4} s ({:.3}), tree 2 threads {t2:.4} s ({:.3})",
+                m.pattern.n,
+                t1 / tf,
+                t2 / tf
+            );
+        }
+    }
+}
