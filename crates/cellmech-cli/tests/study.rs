@@ -345,8 +345,16 @@ fn the_adherent_sites_study_pairs_each_site_with_its_own_control() {
         }
     }
     assert_eq!(cases, expected);
-    assert_eq!(text.matches("protocol.site = \"receptor\"").count(), 4, "{text}");
-    assert_eq!(text.matches("protocol.contact = \"faces\"").count(), 8, "{text}");
+    assert_eq!(
+        text.matches("protocol.site = \"receptor\"").count(),
+        4,
+        "{text}"
+    );
+    assert_eq!(
+        text.matches("protocol.contact = \"faces\"").count(),
+        8,
+        "{text}"
+    );
 }
 
 #[test]

@@ -75,9 +75,10 @@ const MIXED_PIVOT_FLOOR: f64 = 1e-6;
 /// Largest relative forward error of the LU probe solve for the LU to be accepted.
 const LU_PROBE_TOLERANCE: f64 = 1e-6;
 
-/// Default of [`FaerSparseSolver::with_parallel_min_flops`]: numeric factorisations with fewer
-/// flops (`AnalysisInfo::factor_flops`) run sequentially even inside a pool of several
-/// threads. 1e10: on the project's 2-core machine, idle, faer's parallel supernodal
+/// Default of [`FaerSparseSolver::with_parallel_min_flops`]: pivoted (LDLᵀ) factorisations
+/// and solves with fewer flops (`AnalysisInfo::factor_flops`) run sequentially even inside
+/// a pool of several threads (the Cholesky runs on the elimination tree at every size,
+/// `tree_cholesky`). 1e10: on the project's 2-core machine, idle, faer's parallel supernodal
 /// factorisation took 0.60x the sequential time at 1.7e10 flops (30k DOFs) and 0.69x at
 /// 3.7e10 (45k DOFs), but 0.86x at 4.8e9, 1.03x at 1.7e9 and more below (the default cell
 /// mesh's 10k DOFs stay sequential). Its solutions differ from the sequential ones by
@@ -746,7 +747,12 @@ impl FaerSparseSolver {
         }
         match a.tree.as_ref() {
             Some(tree) => tree
-                .factorize(&mut a.l_values32, &a.values32, threads, &a.tree_workspaces32)
+                .factorize(
+                    &mut a.l_values32,
+                    &a.values32,
+                    threads,
+                    &a.tree_workspaces32,
+                )
                 .map_err(|e| format!("single-precision {e}"))?,
             None => {
                 let mat = csc_ref(&a.pattern, &a.values32);

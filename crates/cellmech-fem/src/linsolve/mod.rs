@@ -9,10 +9,10 @@ mod dense;
 mod faer_solver;
 pub mod ordering;
 mod pattern;
-mod tree_cholesky;
 pub mod test_matrices;
 #[cfg(test)]
 mod tests;
+mod tree_cholesky;
 pub use dense::DenseSolver;
 pub use faer_solver::{
     AnalysisInfo, FaerSparseSolver, MixedPrecisionStats, DEFAULT_PARALLEL_MIN_FLOPS,

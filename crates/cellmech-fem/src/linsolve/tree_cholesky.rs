@@ -33,12 +33,7 @@ use super::SparsityPattern;
 
 /// Scalars the factorisation runs in (double, and single for mixed precision).
 pub(crate) trait TreeScalar:
-    faer::traits::RealField
-    + Copy
-    + Send
-    + Sync
-    + std::ops::SubAssign
-    + std::ops::AddAssign
+    faer::traits::RealField + Copy + Send + Sync + std::ops::SubAssign + std::ops::AddAssign
 {
     const ZERO: Self;
     const ONE: Self;
@@ -150,7 +145,9 @@ impl<T> SharedValues<T> {
 }
 
 fn column_flops(width: usize, below: usize) -> f64 {
-    (0..width).map(|k| ((width - k + below) as f64).powi(2)).sum()
+    (0..width)
+        .map(|k| ((width - k + below) as f64).powi(2))
+        .sum()
 }
 
 impl TreeCholesky {
@@ -208,7 +205,9 @@ impl TreeCholesky {
             while i0 < p.len() {
                 let s = col_to_sn[p[i0]];
                 if s <= d {
-                    return Err(format!("supernode {d} updates supernode {s}: not a postorder"));
+                    return Err(format!(
+                        "supernode {d} updates supernode {s}: not a postorder"
+                    ));
                 }
                 let mut i1 = i0;
                 while i1 < p.len() && p[i1] < end[s] {
@@ -273,7 +272,9 @@ impl TreeCholesky {
         for s in 0..ns {
             for &(d, _, _) in &upd[upd_ptr[s]..upd_ptr[s + 1]] {
                 if position[d] < first[s] || position[d] >= position[s] {
-                    return Err(format!("supernode {d} updates {s} from outside its subtree"));
+                    return Err(format!(
+                        "supernode {d} updates {s} from outside its subtree"
+                    ));
                 }
             }
         }
@@ -303,7 +304,12 @@ impl TreeCholesky {
     }
 
     fn workspace<T: TreeScalar>(&self, pool: &WorkspacePool<T>) -> Result<Workspace<T>, String> {
-        if let Some(ws) = pool.free.lock().map_err(|_| "workspace pool poisoned")?.pop() {
+        if let Some(ws) = pool
+            .free
+            .lock()
+            .map_err(|_| "workspace pool poisoned")?
+            .pop()
+        {
             return Ok(ws);
         }
         let req = StackReq::any_of(&[
@@ -343,7 +349,11 @@ impl TreeCholesky {
         };
         let mut ws = self.workspace(pool)?;
         let forking = threads > 1;
-        let dense = if forking { Par::rayon(threads) } else { Par::Seq };
+        let dense = if forking {
+            Par::rayon(threads)
+        } else {
+            Par::Seq
+        };
         let result = self.group(&self.roots, &shared, values, &mut ws, pool, forking, dense);
         Self::give_back(pool, ws);
         result
@@ -378,7 +388,15 @@ impl TreeCholesky {
                 top = self.children[top][0];
                 chain.push(top);
             }
-            self.group(&self.children[top], shared, values, ws, pool, forking, dense)?;
+            self.group(
+                &self.children[top],
+                shared,
+                values,
+                ws,
+                pool,
+                forking,
+                dense,
+            )?;
             for &s in chain.iter().rev() {
                 let par = if self.own_flops[s] >= MIN_DENSE_PARALLEL_FLOPS {
                     dense
@@ -444,15 +462,31 @@ impl TreeCholesky {
             }
         }
         let Workspace { map, product, mem } = ws;
-        self.updates(s, 0, w, MAX_UPDATE_SPLITS, block, map, product, shared, pool)?;
+        self.updates(
+            s,
+            0,
+            w,
+            MAX_UPDATE_SPLITS,
+            block,
+            map,
+            product,
+            shared,
+            pool,
+        )?;
         for &r in pattern {
             map[r] = usize::MAX;
         }
         let mat = MatMut::from_column_major_slice_mut(block, m, w);
         let (mut top, bottom) = mat.split_at_row_mut(w);
         let mut stack = MemStack::new(mem);
-        cholesky_in_place(top.as_mut(), Default::default(), par, &mut stack, Spec::default())
-            .map_err(|err| format!("Cholesky: supernode {s}: {err:?}"))?;
+        cholesky_in_place(
+            top.as_mut(),
+            Default::default(),
+            par,
+            &mut stack,
+            Spec::default(),
+        )
+        .map_err(|err| format!("Cholesky: supernode {s}: {err:?}"))?;
         faer::linalg::triangular_solve::solve_lower_triangular_in_place(
             top.as_ref(),
             bottom.transpose_mut(),
@@ -539,8 +573,8 @@ mod tests {
     use crate::linsolve::ordering::{inverse_permutation, nested_dissection};
     use crate::linsolve::test_matrices::hex_elasticity;
     use faer::sparse::linalg::cholesky::{
-        factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky,
-        SymbolicCholeskyRaw, SymmetricOrdering,
+        factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
+        SymmetricOrdering,
     };
     use faer::sparse::linalg::SupernodalThreshold;
     use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -569,12 +603,21 @@ mod tests {
         }
     }
 
-    fn faer_factor(sym: &SymbolicCholesky<usize>, pattern: &SparsityPattern, values: &[f64]) -> Vec<f64> {
+    fn faer_factor(
+        sym: &SymbolicCholesky<usize>,
+        pattern: &SparsityPattern,
+        values: &[f64],
+    ) -> Vec<f64> {
         let mut l = vec![0.0; sym.len_val()];
         let req = sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default());
         let mut mem = MemBuffer::new(req);
-        let structure =
-            SymbolicSparseColMatRef::new_checked(pattern.n, pattern.n, &pattern.col_ptr, None, &pattern.row_idx);
+        let structure = SymbolicSparseColMatRef::new_checked(
+            pattern.n,
+            pattern.n,
+            &pattern.col_ptr,
+            None,
+            &pattern.row_idx,
+        );
         sym.factorize_numeric_llt(
             &mut l,
             SparseColMatRef::new(structure, values),
@@ -590,7 +633,10 @@ mod tests {
 
     fn max_relative_difference(a: &[f64], b: &[f64]) -> f64 {
         let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+        a.iter()
+            .zip(b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+            / scale
     }
 
     #[test]
@@ -601,7 +647,10 @@ mod tests {
         let reference = faer_factor(&sym, &m.pattern, &m.values);
         let pool = WorkspacePool::default();
         let run = |threads: usize| {
-            let rayon_pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let rayon_pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
             rayon_pool.install(|| {
                 let mut l = vec![0.0; sym.len_val()];
                 tree.factorize(&mut l, &m.values, threads, &pool).unwrap();
@@ -614,7 +663,10 @@ mod tests {
         let two = run(2);
         let d = max_relative_difference(&two, &reference);
         assert!(d < 1e-12, "against faer: {d:e}");
-        assert!(one.iter().zip(&two).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(one
+            .iter()
+            .zip(&two)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 
     #[test]
@@ -645,7 +697,8 @@ mod tests {
         .unwrap();
         let reference: Vec<f64> = reference.iter().map(|&v| f64::from(v)).collect();
         let mut l = vec![0.0f32; sym.len_val()];
-        tree.factorize(&mut l, &values32, 2, &WorkspacePool::default()).unwrap();
+        tree.factorize(&mut l, &values32, 2, &WorkspacePool::default())
+            .unwrap();
         let l: Vec<f64> = l.iter().map(|&v| f64::from(v)).collect();
         let d = max_relative_difference(&l, &reference);
         assert!(d < 1e-5, "against faer's single-precision factor: {d:e}");
@@ -657,12 +710,17 @@ mod tests {
         let (sym, perm) = symbolic(&m.pattern);
         let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
         let mut values = m.values.clone();
-        let mean = (0..m.pattern.n).map(|c| values[m.pattern.col_ptr[c]]).sum::<f64>() / m.pattern.n as f64;
+        let mean = (0..m.pattern.n)
+            .map(|c| values[m.pattern.col_ptr[c]])
+            .sum::<f64>()
+            / m.pattern.n as f64;
         for c in 0..m.pattern.n {
             values[m.pattern.col_ptr[c]] -= 0.3 * mean;
         }
         let mut l = vec![0.0; sym.len_val()];
-        assert!(tree.factorize(&mut l, &values, 2, &WorkspacePool::default()).is_err());
+        assert!(tree
+            .factorize(&mut l, &values, 2, &WorkspacePool::default())
+            .is_err());
     }
 
     #[test]
@@ -685,8 +743,14 @@ mod tests {
                 &m.pattern.row_idx,
             );
             let mat = SparseColMatRef::new(structure, &m.values[..]);
-            let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-            let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            let two = rayon::ThreadPoolBuilder::new()
+                .num_threads(2)
+                .build()
+                .unwrap();
+            let one = rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap();
             let (mut t1, mut t2, mut tf) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
             for _ in 0..5 {
                 let t = Instant::now();
@@ -696,7 +760,16 @@ mod tests {
                 two.install(|| tree.factorize(&mut l, &m.values, 2, &pool).unwrap());
                 t2 = t2.min(t.elapsed().as_secs_f64());
                 let t = Instant::now();
-                sym.factorize_numeric_llt(&mut l, mat, Side::Lower, Default::default(), Par::Seq, &mut MemStack::new(&mut mem), Spec::default()).unwrap();
+                sym.factorize_numeric_llt(
+                    &mut l,
+                    mat,
+                    Side::Lower,
+                    Default::default(),
+                    Par::Seq,
+                    &mut MemStack::new(&mut mem),
+                    Spec::default(),
+                )
+                .unwrap();
                 tf = tf.min(t.elapsed().as_secs_f64());
             }
             let mut l1 = vec![0.0; sym.len_val()];

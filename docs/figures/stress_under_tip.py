@@ -1,0 +1,97 @@
+"""Von Mises stress on a vertical section through the AFM site, with the filaments near it.
+
+Usage: python3 stress_under_tip.py OUT.png RUN_DIR:INDEX[:LABEL] [RUN_DIR:INDEX[:LABEL] ...]
+
+Each panel cuts the deformed hexahedra of output INDEX (the INDEX-th file of
+RUN_DIR/fields.pvd; -1 for the last) with the plane y = y_site through the site recorded in
+RUN_DIR/summary.json (`cell.geometry.site`), colours the cut by the element's von Mises
+stress (kPa, one colour scale for every panel), draws the filament segments within
+0.75 um of the plane in black (width by their axial force), and the paraboloid tip where
+curve.csv puts it (tip radius from summary.json, approach gap 1 um, the protocol's default).
+Needs pyvista and matplotlib (`pip install pyvista matplotlib`). Used for
+docs/adherent-cell.md ("Apex and receptor side by side").
+"""
+import csv
+import json
+import os
+import re
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pyvista as pv
+from matplotlib.collections import LineCollection, PolyCollection
+from matplotlib.colors import LogNorm
+
+HALF_WIDTH = 3.0  # um either side of the site
+SLAB = 0.75  # um: filament segments this close to the plane are drawn
+
+
+def load(run, index):
+    pvd = open(os.path.join(run, "fields.pvd")).read()
+    entries = re.findall(r'timestep="([^"]*)"[^>]*file="([^"]*)"', pvd)
+    time, name = entries[index]
+    summary = json.load(open(os.path.join(run, "summary.json")))
+    site, _normal = summary["cell"]["geometry"]["site"]
+    radius = summary.get("input", {}).get("protocol", {}).get("tip_radius_um", 0.2)
+    curve = list(csv.DictReader(open(os.path.join(run, "curve.csv"))))
+    row = min(curve, key=lambda c: abs(float(c["time"]) - float(time)))
+    mesh = pv.read(os.path.join(run, name)).warp_by_vector("displacement_um")
+    return mesh, site, radius, row
+
+
+def panel(ax, run, index, label, norm):
+    mesh, site, radius, row = load(run, index)
+    hexes = [i for i in range(mesh.n_cells) if mesh.get_cell(i).type == pv.CellType.HEXAHEDRON]
+    cut = mesh.extract_cells(hexes).slice(normal="y", origin=(site[0], site[1], site[2]))
+    polys, values = [], []
+    stress = cut.cell_data["von_mises_kPa"]
+    for i in range(cut.n_cells):
+        pts = cut.get_cell(i).points
+        polys.append(pts[:, [0, 2]])
+        values.append(stress[i])
+    coll = PolyCollection(polys, array=np.maximum(np.array(values), norm.vmin), cmap="viridis", norm=norm)
+    coll.set_edgecolor("face")
+    ax.add_collection(coll)
+    lines = [i for i in range(mesh.n_cells) if mesh.get_cell(i).type == pv.CellType.LINE]
+    segments, widths = [], []
+    force = mesh.cell_data["axial_force_nN"]
+    for i in lines:
+        p = mesh.get_cell(i).points
+        if np.all(np.abs(p[:, 1] - site[1]) < SLAB):
+            segments.append(p[:, [0, 2]])
+            widths.append(0.5 + 2.0 * min(abs(force[i]), 4.0) / 4.0)
+    ax.add_collection(LineCollection(segments, colors="k", linewidths=widths))
+    apex_z = site[2] + 1.0 + float(row["tip_displacement_z_um"])
+    x = np.linspace(site[0] - HALF_WIDTH, site[0] + HALF_WIDTH, 300)
+    ax.plot(x, apex_z + (x - site[0]) ** 2 / (2 * radius), "r-", lw=1.2)
+    ax.set_xlim(site[0] - HALF_WIDTH, site[0] + HALF_WIDTH)
+    ax.set_ylim(site[2] - 5.0, site[2] + 1.0)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (µm)")
+    ax.set_ylabel("z (µm)")
+    depth = float(row["tip_force_along_motion_nN"])
+    ax.set_title(f"{label}\ntip force {depth:.3f} nN", fontsize=9)
+    return coll
+
+
+def main():
+    if len(sys.argv) < 3:
+        sys.exit(__doc__)
+    specs = [s.split(":") for s in sys.argv[2:]]
+    norm = LogNorm(vmin=1e-3, vmax=1.0)
+    fig, axes = plt.subplots(1, len(specs), figsize=(5.5 * len(specs), 5), squeeze=False)
+    coll = None
+    for ax, spec in zip(axes[0], specs):
+        run, index = spec[0], int(spec[1])
+        label = spec[2] if len(spec) > 2 else run
+        coll = panel(ax, run, index, label, norm)
+    fig.colorbar(coll, ax=axes[0].tolist(), label="von Mises stress (kPa)", shrink=0.8)
+    fig.savefig(sys.argv[1], dpi=130, bbox_inches="tight")
+
+
+if __name__ == "__main__":
+    main()
