@@ -81,8 +81,10 @@ pub(crate) struct TreeCholesky {
     /// of s (and rows `i0..` are the rows the update reaches).
     upd_ptr: Vec<usize>,
     upd: Vec<(usize, usize, usize)>,
+    /// Children of each supernode and the roots, by decreasing subtree flops.
     children: Vec<Vec<usize>>,
     roots: Vec<usize>,
+    parent: Vec<Option<usize>>,
     /// A postorder of the supernodes; the subtree of s is `post[first[s]..=position[s]]`.
     post: Vec<usize>,
     first: Vec<usize>,
@@ -268,6 +270,15 @@ impl TreeCholesky {
                 post.push(s);
             }
         }
+        let by_flops = |list: &mut Vec<usize>| {
+            list.sort_by(|a, b| {
+                subtree_flops[*b]
+                    .total_cmp(&subtree_flops[*a])
+                    .then(a.cmp(b))
+            });
+        };
+        children.iter_mut().for_each(by_flops);
+        by_flops(&mut roots);
         // Every update must come from inside the supernode's subtree (the tasks' contract).
         for s in 0..ns {
             for &(d, _, _) in &upd[upd_ptr[s]..upd_ptr[s + 1]] {
@@ -292,6 +303,7 @@ impl TreeCholesky {
             upd,
             children,
             roots,
+            parent,
             post,
             first,
             position,
@@ -381,12 +393,10 @@ impl TreeCholesky {
         }
         if roots.len() == 1 {
             let r = roots[0];
-            // Down the chain of single children, then fork below it.
-            let mut chain = vec![r];
+            // Down the chain of single children, fork below it, then back up the chain.
             let mut top = r;
             while self.children[top].len() == 1 {
                 top = self.children[top][0];
-                chain.push(top);
             }
             self.group(
                 &self.children[top],
@@ -397,35 +407,38 @@ impl TreeCholesky {
                 forking,
                 dense,
             )?;
-            for &s in chain.iter().rev() {
+            let mut s = top;
+            loop {
                 let par = if self.own_flops[s] >= MIN_DENSE_PARALLEL_FLOPS {
                     dense
                 } else {
                     Par::Seq
                 };
                 self.supernode(s, shared, values, ws, pool, par)?;
+                match self.parent[s] {
+                    Some(p) if s != r => s = p,
+                    _ => break,
+                }
             }
             return Ok(());
         }
-        // Two groups of about equal flops (children of one node are in increasing order).
-        let mut sorted: Vec<usize> = roots.to_vec();
-        sorted.sort_unstable_by(|a, b| self.subtree_flops[*b].total_cmp(&self.subtree_flops[*a]));
-        let (mut left, mut right) = (Vec::new(), Vec::new());
-        let (mut fl, mut fr) = (0.0, 0.0);
-        for r in sorted {
-            if fl <= fr {
-                fl += self.subtree_flops[r];
-                left.push(r);
-            } else {
-                fr += self.subtree_flops[r];
-                right.push(r);
+        // Two groups of about equal flops: siblings are sorted by decreasing subtree flops,
+        // the first group is the shortest prefix with half of them.
+        let mut prefix = 0.0;
+        let mut k = 1;
+        for (i, &r) in roots.iter().enumerate() {
+            prefix += self.subtree_flops[r];
+            k = i + 1;
+            if prefix >= 0.5 * flops {
+                break;
             }
         }
+        let (left, right) = roots.split_at(k.min(roots.len() - 1));
         let (a, b) = rayon::join(
-            || self.group(&left, shared, values, ws, pool, forking, dense),
+            || self.group(left, shared, values, ws, pool, forking, dense),
             || {
                 let mut own = self.workspace(pool)?;
-                let r = self.group(&right, shared, values, &mut own, pool, forking, dense);
+                let r = self.group(right, shared, values, &mut own, pool, forking, dense);
                 Self::give_back(pool, own);
                 r
             },
