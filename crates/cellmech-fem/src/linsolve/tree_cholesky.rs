@@ -56,6 +56,10 @@ const MIN_FORK_FLOPS: f64 = 2e6;
 /// two tasks (recursively, [`MAX_UPDATE_SPLITS`] times at most).
 const MIN_SPLIT_UPDATE_FLOPS: f64 = 2e7;
 
+/// Rows of an update product formed at once (bounds the product buffer to this many rows
+/// times the widest update).
+const ROW_BLOCK: usize = 256;
+
 /// Most halvings of one supernode's update columns (at most 2^this tasks, each with its
 /// own product buffer).
 const MAX_UPDATE_SPLITS: usize = 2;
@@ -219,7 +223,7 @@ impl TreeCholesky {
                     parent[d] = Some(s);
                 }
                 lists[s].push((d, i0, i1));
-                max_product = max_product.max((p.len() - i0) * (i1 - i0));
+                max_product = max_product.max((p.len() - i0).min(ROW_BLOCK) * (i1 - i0));
                 i0 = i1;
             }
             max_width = max_width.max(end[d] - begin[d]);
@@ -530,7 +534,14 @@ impl TreeCholesky {
         let m = w + self.pat_ptr[s + 1] - self.pat_ptr[s];
         let share = self.update_flops[s] * (hi - lo) as f64 / w as f64;
         if splits > 0 && share >= MIN_SPLIT_UPDATE_FLOPS && hi - lo >= 2 {
-            let mid = lo + (hi - lo) / 2;
+            // Halve the work, not the columns: column j receives rows from j down (m - j).
+            let total: usize = (lo..hi).map(|j| m - j).sum();
+            let (mut mid, mut done) = (lo, 0);
+            while mid < hi - 1 && 2 * (done + m - mid) <= total {
+                done += m - mid;
+                mid += 1;
+            }
+            let mid = mid.max(lo + 1);
             let (left, right) = part.split_at_mut((mid - lo) * m);
             let mut other = self.workspace(pool)?;
             let (a, c) = rayon::join(
@@ -557,24 +568,31 @@ impl TreeCholesky {
             let ld = unsafe { shared.block(self.val_ptr[d]..self.val_ptr[d + 1]) };
             let ld = MatRef::from_column_major_slice(ld, md, wd);
             let (nr, nc) = (pd.len() - j0, j1 - j0);
-            let product = &mut product[..nr * nc];
-            faer::linalg::matmul::matmul(
-                MatMut::from_column_major_slice_mut(product, nr, nc),
-                Accum::Replace,
-                ld.subrows(wd + j0, nr),
-                ld.subrows(wd + j0, nc).transpose(),
-                T::ONE,
-                Par::Seq,
-            );
-            for c in 0..nc {
-                let col = pd[j0 + c] - b - lo;
-                let column = &mut part[col * m..(col + 1) * m];
-                let source = &product[c * nr..(c + 1) * nr];
-                for r in c..nr {
-                    let row = pd[j0 + r];
-                    let local = if row < e { row - b } else { map[row] };
-                    column[local] -= source[r];
+            // In blocks of rows (a bounded buffer); row r meets the columns c ≤ r.
+            let mut r0 = 0;
+            while r0 < nr {
+                let rb = ROW_BLOCK.min(nr - r0);
+                let ncb = nc.min(r0 + rb);
+                let product = &mut product[..rb * ncb];
+                faer::linalg::matmul::matmul(
+                    MatMut::from_column_major_slice_mut(product, rb, ncb),
+                    Accum::Replace,
+                    ld.subrows(wd + j0 + r0, rb),
+                    ld.subrows(wd + j0, ncb).transpose(),
+                    T::ONE,
+                    Par::Seq,
+                );
+                for c in 0..ncb {
+                    let col = pd[j0 + c] - b - lo;
+                    let column = &mut part[col * m..(col + 1) * m];
+                    let source = &product[c * rb..(c + 1) * rb];
+                    for r in c.max(r0)..r0 + rb {
+                        let row = pd[j0 + r];
+                        let local = if row < e { row - b } else { map[row] };
+                        column[local] -= source[r - r0];
+                    }
                 }
+                r0 += rb;
             }
         }
         Ok(())
