@@ -634,14 +634,19 @@ mod tests {
         }
     }
 
-    fn faer_factor(
+    /// Scratch for [`faer_factor_into`].
+    fn faer_scratch<T: TreeScalar>(sym: &SymbolicCholesky<usize>) -> MemBuffer {
+        MemBuffer::new(sym.factorize_numeric_llt_scratch::<T>(Par::Seq, Spec::default()))
+    }
+
+    /// faer's sequential numeric Cholesky of `values` into `l` (the reference).
+    fn faer_factor_into<T: TreeScalar>(
         sym: &SymbolicCholesky<usize>,
         pattern: &SparsityPattern,
-        values: &[f64],
-    ) -> Vec<f64> {
-        let mut l = vec![0.0; sym.len_val()];
-        let req = sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default());
-        let mut mem = MemBuffer::new(req);
+        values: &[T],
+        l: &mut [T],
+        mem: &mut MemBuffer,
+    ) {
         let structure = SymbolicSparseColMatRef::new_checked(
             pattern.n,
             pattern.n,
@@ -650,15 +655,24 @@ mod tests {
             &pattern.row_idx,
         );
         sym.factorize_numeric_llt(
-            &mut l,
+            l,
             SparseColMatRef::new(structure, values),
             Side::Lower,
             Default::default(),
             Par::Seq,
-            &mut MemStack::new(&mut mem),
+            &mut MemStack::new(mem),
             Spec::default(),
         )
         .unwrap();
+    }
+
+    fn faer_factor(
+        sym: &SymbolicCholesky<usize>,
+        pattern: &SparsityPattern,
+        values: &[f64],
+    ) -> Vec<f64> {
+        let mut l = vec![0.0; sym.len_val()];
+        faer_factor_into(sym, pattern, values, &mut l, &mut faer_scratch::<f64>(sym));
         l
     }
 
@@ -707,25 +721,8 @@ mod tests {
         let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
         let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
         let mut reference = vec![0.0f32; sym.len_val()];
-        let req = sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Spec::default());
-        let mut mem = MemBuffer::new(req);
-        let structure = SymbolicSparseColMatRef::new_checked(
-            m.pattern.n,
-            m.pattern.n,
-            &m.pattern.col_ptr,
-            None,
-            &m.pattern.row_idx,
-        );
-        sym.factorize_numeric_llt(
-            &mut reference,
-            SparseColMatRef::new(structure, &values32[..]),
-            Side::Lower,
-            Default::default(),
-            Par::Seq,
-            &mut MemStack::new(&mut mem),
-            Spec::default(),
-        )
-        .unwrap();
+        let mut mem = faer_scratch::<f32>(&sym);
+        faer_factor_into(&sym, &m.pattern, &values32, &mut reference, &mut mem);
         let reference: Vec<f64> = reference.iter().map(|&v| f64::from(v)).collect();
         let mut l = vec![0.0f32; sym.len_val()];
         tree.factorize(&mut l, &values32, 2, &WorkspacePool::default())
@@ -764,16 +761,7 @@ mod tests {
             let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
             let pool = WorkspacePool::default();
             let mut l = vec![0.0; sym.len_val()];
-            let req = sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default());
-            let mut mem = MemBuffer::new(req);
-            let structure = SymbolicSparseColMatRef::new_checked(
-                m.pattern.n,
-                m.pattern.n,
-                &m.pattern.col_ptr,
-                None,
-                &m.pattern.row_idx,
-            );
-            let mat = SparseColMatRef::new(structure, &m.values[..]);
+            let mut mem = faer_scratch::<f64>(&sym);
             let two = rayon::ThreadPoolBuilder::new()
                 .num_threads(2)
                 .build()
@@ -791,16 +779,7 @@ mod tests {
                 two.install(|| tree.factorize(&mut l, &m.values, 2, &pool).unwrap());
                 t2 = t2.min(t.elapsed().as_secs_f64());
                 let t = Instant::now();
-                sym.factorize_numeric_llt(
-                    &mut l,
-                    mat,
-                    Side::Lower,
-                    Default::default(),
-                    Par::Seq,
-                    &mut MemStack::new(&mut mem),
-                    Spec::default(),
-                )
-                .unwrap();
+                faer_factor_into(&sym, &m.pattern, &m.values, &mut l, &mut mem);
                 tf = tf.min(t.elapsed().as_secs_f64());
             }
             let mut l1 = vec![0.0; sym.len_val()];
