@@ -136,6 +136,9 @@ unsafe impl<T: Send> Sync for SharedValues<T> {}
 
 impl<T> SharedValues<T> {
     /// SAFETY: `range` must be the block of a supernode whose task is the caller.
+    // A mutable block from a shared handle is the point: the tasks share the factor, and
+    // the schedule, not the borrow checker, keeps their blocks apart.
+    #[allow(clippy::mut_from_ref)]
     unsafe fn block_mut(&self, range: std::ops::Range<usize>) -> &mut [T] {
         debug_assert!(range.end <= self.len);
         // SAFETY: in bounds, and no other task touches this block now (caller's contract).
@@ -190,12 +193,12 @@ impl TreeCholesky {
         let begin = sym.supernode_begin().to_vec();
         let end = sym.supernode_end().to_vec();
         let mut pat = Vec::new();
-        let mut pat_ptr = vec![0usize; ns + 1];
+        let mut pat_ptr = Vec::with_capacity(ns + 1);
         for s in 0..ns {
-            pat_ptr[s] = pat.len();
+            pat_ptr.push(pat.len());
             pat.extend_from_slice(sym.supernode(s).pattern());
         }
-        pat_ptr[ns] = pat.len();
+        pat_ptr.push(pat.len());
         let val_ptr = sym.col_ptr_for_val().to_vec();
         let mut col_to_sn = vec![0usize; n];
         for s in 0..ns {
@@ -376,6 +379,7 @@ impl TreeCholesky {
     }
 
     /// Factorises the subtrees rooted at `roots` (none an ancestor of another).
+    #[allow(clippy::too_many_arguments)]
     fn group<T: TreeScalar>(
         &self,
         roots: &[usize],
@@ -495,12 +499,11 @@ impl TreeCholesky {
         }
         let mat = MatMut::from_column_major_slice_mut(block, m, w);
         let (mut top, bottom) = mat.split_at_row_mut(w);
-        let mut stack = MemStack::new(mem);
         cholesky_in_place(
             top.as_mut(),
             Default::default(),
             par,
-            &mut stack,
+            MemStack::new(mem),
             Spec::default(),
         )
         .map_err(|err| format!("Cholesky: supernode {s}: {err:?}"))?;
