@@ -56,9 +56,10 @@ def panel(ax, run, index, label, norm):
     coll = PolyCollection(polys, array=np.maximum(np.array(values), norm.vmin), cmap="viridis", norm=norm)
     coll.set_edgecolor("face")
     ax.add_collection(coll)
-    lines = [i for i in range(mesh.n_cells) if mesh.get_cell(i).type == pv.CellType.LINE]
+    has_filaments = "axial_force_nN" in mesh.cell_data
+    lines = [i for i in range(mesh.n_cells) if has_filaments and mesh.get_cell(i).type == pv.CellType.LINE]
     segments, widths = [], []
-    force = mesh.cell_data["axial_force_nN"]
+    force = mesh.cell_data["axial_force_nN"] if has_filaments else []
     for i in lines:
         p = mesh.get_cell(i).points
         if np.all(np.abs(p[:, 1] - site[1]) < SLAB):
