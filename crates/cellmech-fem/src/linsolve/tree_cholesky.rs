@@ -736,6 +736,45 @@ mod tests {
     }
 
     #[test]
+    fn the_solver_uses_the_tree_and_solves_the_same_bits_on_one_and_two_threads() {
+        use crate::linsolve::{FaerSparseSolver, LinearSolver};
+        let m = hex_elasticity(10, 9, 9, 1.0, 0.3);
+        let b: Vec<f64> = (0..m.pattern.n)
+            .map(|i| ((i * 7919) % 13) as f64 - 6.0)
+            .collect();
+        let solve = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut solver = FaerSparseSolver::new(0);
+                solver.analyze(&m.pattern).unwrap();
+                assert!(solver.analysis_info().unwrap().tree_factorisation);
+                solver.factorize(&m.values).unwrap();
+                let mut x = b.clone();
+                solver.solve_in_place(&mut x).unwrap();
+                x
+            })
+        };
+        let (one, two) = (solve(1), solve(2));
+        let mut ax = vec![0.0; m.pattern.n];
+        m.pattern.sym_mul(&m.values, &two, &mut ax);
+        let r: f64 = ax
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let nb: f64 = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(r < 1e-10 * nb, "relative residual {:e}", r / nb);
+        assert!(one
+            .iter()
+            .zip(&two)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    #[test]
     fn an_indefinite_matrix_fails() {
         let m = hex_elasticity(9, 8, 8, 1.0, 0.3);
         let (sym, perm) = symbolic(&m.pattern);
