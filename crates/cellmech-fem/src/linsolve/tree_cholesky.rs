@@ -153,6 +153,32 @@ impl<T> SharedValues<T> {
     }
 }
 
+/// What every task of one factorisation shares.
+struct Context<'a, T> {
+    shared: SharedValues<T>,
+    values: &'a [T],
+    pool: &'a WorkspacePool<T>,
+    /// Whether tasks may run concurrently (more than one thread).
+    forking: bool,
+    /// The dense kernels' parallelism for the large supernodes of the top chain.
+    dense: Par,
+}
+
+impl<T: Send> Context<'_, T> {
+    /// `a` and `b`, concurrently when forking (the same arithmetic either way).
+    fn join<A: Send, B: Send>(
+        &self,
+        a: impl FnOnce() -> A + Send,
+        b: impl FnOnce() -> B + Send,
+    ) -> (A, B) {
+        if self.forking {
+            rayon::join(a, b)
+        } else {
+            (a(), b())
+        }
+    }
+}
+
 fn column_flops(width: usize, below: usize) -> f64 {
     (0..width)
         .map(|k| ((width - k + below) as f64).powi(2))
@@ -368,33 +394,34 @@ impl TreeCholesky {
         };
         let mut ws = self.workspace(pool)?;
         let forking = threads > 1;
-        let dense = if forking {
-            Par::rayon(threads)
-        } else {
-            Par::Seq
+        let cx = Context {
+            shared,
+            values,
+            pool,
+            forking,
+            dense: if forking {
+                Par::rayon(threads)
+            } else {
+                Par::Seq
+            },
         };
-        let result = self.group(&self.roots, &shared, values, &mut ws, pool, forking, dense);
+        let result = self.group(&self.roots, &cx, &mut ws);
         Self::give_back(pool, ws);
         result
     }
 
     /// Factorises the subtrees rooted at `roots` (none an ancestor of another).
-    #[allow(clippy::too_many_arguments)]
     fn group<T: TreeScalar>(
         &self,
         roots: &[usize],
-        shared: &SharedValues<T>,
-        values: &[T],
+        cx: &Context<'_, T>,
         ws: &mut Workspace<T>,
-        pool: &WorkspacePool<T>,
-        forking: bool,
-        dense: Par,
     ) -> Result<(), String> {
         let flops: f64 = roots.iter().map(|&r| self.subtree_flops[r]).sum();
-        if !forking || flops < MIN_FORK_FLOPS {
+        if !cx.forking || flops < MIN_FORK_FLOPS {
             for &r in roots {
                 for &s in &self.post[self.first[r]..=self.position[r]] {
-                    self.supernode(s, shared, values, ws, pool, Par::Seq)?;
+                    self.supernode(s, cx, ws, Par::Seq)?;
                 }
             }
             return Ok(());
@@ -406,23 +433,15 @@ impl TreeCholesky {
             while self.children[top].len() == 1 {
                 top = self.children[top][0];
             }
-            self.group(
-                &self.children[top],
-                shared,
-                values,
-                ws,
-                pool,
-                forking,
-                dense,
-            )?;
+            self.group(&self.children[top], cx, ws)?;
             let mut s = top;
             loop {
                 let par = if self.own_flops[s] >= MIN_DENSE_PARALLEL_FLOPS {
-                    dense
+                    cx.dense
                 } else {
                     Par::Seq
                 };
-                self.supernode(s, shared, values, ws, pool, par)?;
+                self.supernode(s, cx, ws, par)?;
                 match self.parent[s] {
                     Some(p) if s != r => s = p,
                     _ => break,
@@ -443,11 +462,11 @@ impl TreeCholesky {
         }
         let (left, right) = roots.split_at(k.min(roots.len() - 1));
         let (a, b) = rayon::join(
-            || self.group(left, shared, values, ws, pool, forking, dense),
+            || self.group(left, cx, ws),
             || {
-                let mut own = self.workspace(pool)?;
-                let r = self.group(right, shared, values, &mut own, pool, forking, dense);
-                Self::give_back(pool, own);
+                let mut own = self.workspace(cx.pool)?;
+                let r = self.group(right, cx, &mut own);
+                Self::give_back(cx.pool, own);
                 r
             },
         );
@@ -458,18 +477,17 @@ impl TreeCholesky {
     fn supernode<T: TreeScalar>(
         &self,
         s: usize,
-        shared: &SharedValues<T>,
-        values: &[T],
+        cx: &Context<'_, T>,
         ws: &mut Workspace<T>,
-        pool: &WorkspacePool<T>,
         par: Par,
     ) -> Result<(), String> {
+        let values = cx.values;
         let (b, e) = (self.begin[s], self.end[s]);
         let w = e - b;
         let pattern = &self.pat[self.pat_ptr[s]..self.pat_ptr[s + 1]];
         let m = w + pattern.len();
         // SAFETY: this task factorises s; nobody else touches its block now.
-        let block = unsafe { shared.block_mut(self.val_ptr[s]..self.val_ptr[s + 1]) };
+        let block = unsafe { cx.shared.block_mut(self.val_ptr[s]..self.val_ptr[s + 1]) };
         block.fill(T::ZERO);
         for (t, &r) in pattern.iter().enumerate() {
             ws.map[r] = w + t;
@@ -483,17 +501,7 @@ impl TreeCholesky {
             }
         }
         let Workspace { map, product, mem } = ws;
-        self.updates(
-            s,
-            0,
-            w,
-            MAX_UPDATE_SPLITS,
-            block,
-            map,
-            product,
-            shared,
-            pool,
-        )?;
+        self.updates(s, 0, w, MAX_UPDATE_SPLITS, block, map, product, cx)?;
         for &r in pattern {
             map[r] = usize::MAX;
         }
@@ -529,8 +537,7 @@ impl TreeCholesky {
         part: &mut [T],
         map: &[usize],
         product: &mut [T],
-        shared: &SharedValues<T>,
-        pool: &WorkspacePool<T>,
+        cx: &Context<'_, T>,
     ) -> Result<(), String> {
         let (b, e) = (self.begin[s], self.end[s]);
         let w = e - b;
@@ -546,15 +553,15 @@ impl TreeCholesky {
             }
             let mid = mid.max(lo + 1);
             let (left, right) = part.split_at_mut((mid - lo) * m);
-            let mut other = self.workspace(pool)?;
-            let (a, c) = rayon::join(
-                || self.updates(s, lo, mid, splits - 1, left, map, product, shared, pool),
+            let mut other = self.workspace(cx.pool)?;
+            let (a, c) = cx.join(
+                || self.updates(s, lo, mid, splits - 1, left, map, product, cx),
                 || {
                     let other = &mut other.product;
-                    self.updates(s, mid, hi, splits - 1, right, map, other, shared, pool)
+                    self.updates(s, mid, hi, splits - 1, right, map, other, cx)
                 },
             );
-            Self::give_back(pool, other);
+            Self::give_back(cx.pool, other);
             return a.and(c);
         }
         for &(d, i0, i1) in &self.upd[self.upd_ptr[s]..self.upd_ptr[s + 1]] {
@@ -568,7 +575,7 @@ impl TreeCholesky {
             }
             let md = wd + pd.len();
             // SAFETY: d is a descendant of s (checked in `new`), finished before s started.
-            let ld = unsafe { shared.block(self.val_ptr[d]..self.val_ptr[d + 1]) };
+            let ld = unsafe { cx.shared.block(self.val_ptr[d]..self.val_ptr[d + 1]) };
             let ld = MatRef::from_column_major_slice(ld, md, wd);
             let (nr, nc) = (pd.len() - j0, j1 - j0);
             // In blocks of rows (a bounded buffer); row r meets the columns c ≤ r.
