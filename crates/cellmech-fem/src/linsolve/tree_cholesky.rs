@@ -686,6 +686,10 @@ mod tests {
         l
     }
 
+    fn bitwise_equal(a: &[f64], b: &[f64]) -> bool {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+    }
+
     fn max_relative_difference(a: &[f64], b: &[f64]) -> f64 {
         let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         a.iter()
@@ -718,10 +722,7 @@ mod tests {
         let two = run(2);
         let d = max_relative_difference(&two, &reference);
         assert!(d < 1e-12, "against faer: {d:e}");
-        assert!(one
-            .iter()
-            .zip(&two)
-            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(bitwise_equal(&one, &two));
     }
 
     #[test]
@@ -775,10 +776,7 @@ mod tests {
             .sqrt();
         let nb: f64 = b.iter().map(|v| v * v).sum::<f64>().sqrt();
         assert!(r < 1e-10 * nb, "relative residual {:e}", r / nb);
-        assert!(one
-            .iter()
-            .zip(&two)
-            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(bitwise_equal(&one, &two));
     }
 
     #[test]
@@ -835,7 +833,7 @@ mod tests {
             one.install(|| tree.factorize(&mut l1, &m.values, 1, &pool).unwrap());
             let mut l2 = vec![0.0; sym.len_val()];
             two.install(|| tree.factorize(&mut l2, &m.values, 2, &pool).unwrap());
-            let same = l1.iter().zip(&l2).all(|(a, b)| a.to_bits() == b.to_bits());
+            let same = bitwise_equal(&l1, &l2);
             eprintln!("n {}: 1 and 2 threads bitwise equal: {same}", m.pattern.n);
             eprintln!(
                 "n {}: faer sequential {tf:.4} s, tree 1 thread {t1:.4} s ({:.3}), tree 2 threads {t2:.4} s ({:.3})",
