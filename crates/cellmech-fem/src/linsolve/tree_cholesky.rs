@@ -686,6 +686,31 @@ mod tests {
         l
     }
 
+    /// A hex-elasticity grid, faer's symbolic factor of it and the tree on that factor.
+    fn grid(
+        nx: usize,
+        ny: usize,
+        nz: usize,
+    ) -> (
+        crate::linsolve::test_matrices::TestMatrix,
+        SymbolicCholesky<usize>,
+        TreeCholesky,
+    ) {
+        let m = hex_elasticity(nx, ny, nz, 1.0, 0.3);
+        let (sym, perm) = symbolic(&m.pattern);
+        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        (m, sym, tree)
+    }
+
+    /// `f` run inside a fresh pool of `threads` threads.
+    fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(f)
+    }
+
     fn bitwise_equal(a: &[f64], b: &[f64]) -> bool {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     }
@@ -700,17 +725,11 @@ mod tests {
 
     #[test]
     fn the_tree_factor_equals_faers_and_is_the_same_on_one_and_two_threads() {
-        let m = hex_elasticity(11, 10, 9, 1.0, 0.3);
-        let (sym, perm) = symbolic(&m.pattern);
-        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let (m, sym, tree) = grid(11, 10, 9);
         let reference = faer_factor(&sym, &m.pattern, &m.values);
         let pool = WorkspacePool::default();
         let run = |threads: usize| {
-            let rayon_pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            rayon_pool.install(|| {
+            in_pool(threads, || {
                 let mut l = vec![0.0; sym.len_val()];
                 tree.factorize(&mut l, &m.values, threads, &pool).unwrap();
                 l
@@ -727,9 +746,7 @@ mod tests {
 
     #[test]
     fn the_tree_factor_works_in_single_precision() {
-        let m = hex_elasticity(8, 9, 10, 1.0, 0.3);
-        let (sym, perm) = symbolic(&m.pattern);
-        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let (m, sym, tree) = grid(8, 9, 10);
         let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
         let mut reference = vec![0.0f32; sym.len_val()];
         let mut mem = faer_scratch::<f32>(&sym);
@@ -751,11 +768,7 @@ mod tests {
             .map(|i| ((i * 7919) % 13) as f64 - 6.0)
             .collect();
         let solve = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            in_pool(threads, || {
                 let mut solver = FaerSparseSolver::new(0);
                 solver.analyze(&m.pattern).unwrap();
                 assert!(solver.analysis_info().unwrap().tree_factorisation);
@@ -781,9 +794,7 @@ mod tests {
 
     #[test]
     fn an_indefinite_matrix_fails() {
-        let m = hex_elasticity(9, 8, 8, 1.0, 0.3);
-        let (sym, perm) = symbolic(&m.pattern);
-        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let (m, sym, tree) = grid(9, 8, 8);
         let mut values = m.values.clone();
         let mean = (0..m.pattern.n)
             .map(|c| values[m.pattern.col_ptr[c]])
@@ -803,9 +814,7 @@ mod tests {
     fn time_tree_against_faer() {
         use std::time::Instant;
         for k in [14, 18, 22] {
-            let m = hex_elasticity(k, k, k, 1.0, 0.3);
-            let (sym, perm) = symbolic(&m.pattern);
-            let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+            let (m, sym, tree) = grid(k, k, k);
             let pool = WorkspacePool::default();
             let mut l = vec![0.0; sym.len_val()];
             let mut mem = faer_scratch::<f64>(&sym);
