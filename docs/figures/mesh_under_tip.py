@@ -22,15 +22,20 @@ import numpy as np
 import pyvista as pv
 
 
-def panel(ax, run, index, label):
+def output(run, index):
+    """The INDEX-th VTU file of RUN/fields.pvd (path) and the curve.csv row at its time."""
     pvd = open(os.path.join(run, "fields.pvd")).read()
     entries = re.findall(r'timestep="([^"]*)"[^>]*file="([^"]*)"', pvd)
     time, name = entries[index]
-    time = float(time)
     curve = list(csv.DictReader(open(os.path.join(run, "curve.csv"))))
-    row = min(curve, key=lambda c: abs(float(c["time"]) - time))
+    row = min(curve, key=lambda c: abs(float(c["time"]) - float(time)))
+    return os.path.join(run, name), row
+
+
+def panel(ax, run, index, label):
+    path, row = output(run, index)
     radius = 0.2
-    reference = pv.read(os.path.join(run, name))
+    reference = pv.read(path)
     top = float(reference.bounds[5])
     mesh = reference.warp_by_vector("displacement_um")
     hexes = [i for i in range(mesh.n_cells) if mesh.get_cell(i).type == pv.CellType.HEXAHEDRON]

@@ -11,10 +11,8 @@ curve.csv puts it (tip radius from summary.json, approach gap 1 um, the protocol
 Needs pyvista and matplotlib (`pip install pyvista matplotlib`). Used for
 docs/adherent-cell.md ("Apex and receptor side by side").
 """
-import csv
 import json
 import os
-import re
 import sys
 
 import matplotlib
@@ -26,20 +24,19 @@ import pyvista as pv
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import LogNorm
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mesh_under_tip import output  # noqa: E402  (the same run reader)
+
 HALF_WIDTH = 3.0  # um either side of the site
 SLAB = 0.75  # um: filament segments this close to the plane are drawn
 
 
 def load(run, index):
-    pvd = open(os.path.join(run, "fields.pvd")).read()
-    entries = re.findall(r'timestep="([^"]*)"[^>]*file="([^"]*)"', pvd)
-    time, name = entries[index]
+    path, row = output(run, index)
     summary = json.load(open(os.path.join(run, "summary.json")))
     site, _normal = summary["cell"]["geometry"]["site"]
     radius = summary.get("input", {}).get("protocol", {}).get("tip_radius_um", 0.2)
-    curve = list(csv.DictReader(open(os.path.join(run, "curve.csv"))))
-    row = min(curve, key=lambda c: abs(float(c["time"]) - float(time)))
-    mesh = pv.read(os.path.join(run, name)).warp_by_vector("displacement_um")
+    mesh = pv.read(path).warp_by_vector("displacement_um")
     return mesh, site, radius, row
 
 

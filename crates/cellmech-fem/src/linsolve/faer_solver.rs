@@ -18,7 +18,7 @@ use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMatRef, Tripl
 use faer::{Conj, MatMut, Par, Side, Spec};
 
 use super::ordering::{cholesky_fill, is_permutation, nested_dissection, FillOrdering};
-use super::tree_cholesky::{TreeCholesky, WorkspacePool};
+use super::tree_cholesky::{TreeCholesky, TreeScalar, WorkspacePool};
 use super::{FactorInfo, FactorMethod, LinSolveError, LinearSolver, SparsityPattern};
 
 /// Facts about the ordering and symbolic factorisation of the last `analyze`.
@@ -299,14 +299,14 @@ impl FaerSparseSolver {
         let analysis = self.analysis.as_ref().ok_or("not analysed")?;
         let (par, threads) = (self.factor_par(analysis), self.tree_threads(analysis));
         let a = self.analysis.as_mut().ok_or("not analysed")?;
-        match a.tree.as_ref() {
-            Some(tree) => tree.factorize(&mut a.l_values, values, threads, &a.tree_workspaces)?,
-            None => {
-                let mat = csc_ref(&a.pattern, values);
-                numeric_llt(&a.symbolic, &mut a.l_values, mat, par, &mut a.mem)
-                    .map_err(|e| format!("Cholesky: {e:?}"))?;
-            }
-        }
+        let factor = LltFactor {
+            symbolic: &a.symbolic,
+            tree: a.tree.as_ref(),
+            pattern: &a.pattern,
+            par,
+            threads,
+        };
+        factor.numeric(values, &mut a.l_values, &a.tree_workspaces, &mut a.mem)?;
         let sym = supernodal(&a.symbolic)?;
         let l = SupernodalLltRef::new(sym, &a.l_values);
         for s in 0..sym.n_supernodes() {
@@ -745,21 +745,21 @@ impl FaerSparseSolver {
                 a.values32[k] = scaled as f32;
             }
         }
-        match a.tree.as_ref() {
-            Some(tree) => tree
-                .factorize(
-                    &mut a.l_values32,
-                    &a.values32,
-                    threads,
-                    &a.tree_workspaces32,
-                )
-                .map_err(|e| format!("single-precision {e}"))?,
-            None => {
-                let mat = csc_ref(&a.pattern, &a.values32);
-                numeric_llt(&a.symbolic, &mut a.l_values32, mat, par, &mut a.mem)
-                    .map_err(|e| format!("single-precision Cholesky: {e:?}"))?;
-            }
-        }
+        let factor = LltFactor {
+            symbolic: &a.symbolic,
+            tree: a.tree.as_ref(),
+            pattern: &a.pattern,
+            par,
+            threads,
+        };
+        factor
+            .numeric(
+                &a.values32,
+                &mut a.l_values32,
+                &a.tree_workspaces32,
+                &mut a.mem,
+            )
+            .map_err(|e| format!("single-precision {e}"))?;
         let sym = supernodal(&a.symbolic)?;
         let l = SupernodalLltRef::new(sym, &a.l_values32);
         let floor = self.pivot_tolerance.max(MIXED_PIVOT_FLOOR);
@@ -870,27 +870,42 @@ fn refine_single_solve(a: &mut Analysis, rhs: &mut [f64], par: Par) -> (usize, b
     (steps, false)
 }
 
-/// faer's numeric supernodal LLᵀ of the lower triangle `mat` into `l_values`, in either
-/// precision, with the workspace `mem`.
-fn numeric_llt<T: faer::traits::ComplexField>(
-    symbolic: &SymbolicCholesky<usize>,
-    l_values: &mut [T],
-    mat: SparseColMatRef<'_, usize, T>,
+/// How the numeric LLᵀ runs: on the elimination tree when `tree` is there (with up to
+/// `threads` tasks), else faer's numeric step with parallelism `par`.
+struct LltFactor<'a> {
+    symbolic: &'a SymbolicCholesky<usize>,
+    tree: Option<&'a TreeCholesky>,
+    pattern: &'a SparsityPattern,
     par: Par,
-    mem: &mut MemBuffer,
-) -> Result<(), faer::linalg::solvers::LltError> {
-    let mut stack = MemStack::new(mem);
-    symbolic
-        .factorize_numeric_llt(
-            l_values,
-            mat,
-            Side::Lower,
-            Default::default(),
-            par,
-            &mut stack,
-            Spec::default(),
-        )
-        .map(|_| ())
+    threads: usize,
+}
+
+impl LltFactor<'_> {
+    /// The LLᵀ of the lower triangle `values` into `l`, in either precision (`workspaces`:
+    /// the tree's, `mem`: faer's).
+    fn numeric<T: TreeScalar>(
+        &self,
+        values: &[T],
+        l: &mut [T],
+        workspaces: &WorkspacePool<T>,
+        mem: &mut MemBuffer,
+    ) -> Result<(), String> {
+        if let Some(tree) = self.tree {
+            return tree.factorize(l, values, self.threads, workspaces);
+        }
+        self.symbolic
+            .factorize_numeric_llt(
+                l,
+                csc_ref(self.pattern, values),
+                Side::Lower,
+                Default::default(),
+                self.par,
+                MemStack::new(mem),
+                Spec::default(),
+            )
+            .map(|_| ())
+            .map_err(|e| format!("Cholesky: {e:?}"))
+    }
 }
 
 /// `a.x32` ← the single-precision factor's solution for `v` (scaled to and from the unit
