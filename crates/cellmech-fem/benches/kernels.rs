@@ -78,6 +78,19 @@ fn kernels(c: &mut Criterion) {
             .expect("evaluates")
         })
     });
+    c.bench_function("hex8_evaluate residual only (mean dilatation)", |b| {
+        b.iter(|| {
+            hex8_evaluate(
+                &hex,
+                &material,
+                Hex8Formulation::MeanDilatation,
+                black_box(&uh),
+                &mut r24,
+                None,
+            )
+            .expect("evaluates")
+        })
+    });
 }
 
 criterion_group!(benches, kernels);

@@ -276,8 +276,11 @@ pub struct AnalysisBench {
     pub assemblies: usize,
     /// Time in tangent assembly (s).
     pub assembly_s: f64,
-    /// Time in residual-only assembly (line searches) (s).
+    /// Time in residual-only assembly (line searches, quasi-Newton iterations) (s).
     pub residual_only_s: f64,
+    /// Residual-only assemblies.
+    #[serde(default)]
+    pub residual_evaluations: usize,
     /// Time in factorisation (s).
     pub factorization_s: f64,
     /// Time in triangular solves (s).
@@ -363,6 +366,7 @@ fn measure(
         assemblies: t.assemblies,
         assembly_s: t.assembly_s,
         residual_only_s: t.residual_only_s,
+        residual_evaluations: t.residual_evaluations,
         factorization_s: t.factorization_s,
         solve_s: t.solve_s,
         relaxation_s: t.relaxation.seconds,

@@ -84,9 +84,9 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
             .map_err(|e| anyhow::anyhow!("benchmark {name}: {e}"))?;
         if !args.json {
             println!(
-                "{} ({} hex8, {} dofs{}): wall {:.2} s, {} iterations, {} factorisations; assembly {:.2} s + residual-only {:.2} s, factorisation {:.2} s, solve {:.2} s, relaxation {:.2} s, other {:.2} s; result {:.6} nN",
+                "{} ({} hex8, {} dofs{}): wall {:.2} s, {} iterations, {} factorisations; assembly {:.2} s ({}) + residual-only {:.2} s ({}), factorisation {:.2} s, solve {:.2} s, relaxation {:.2} s, other {:.2} s; result {:.6} nN",
                 r.name, r.elements, r.dofs, if r.coarse { ", coarse" } else { "" }, r.wall_s, r.iterations,
-                r.factorizations, r.assembly_s, r.residual_only_s, r.factorization_s, r.solve_s, r.relaxation_s, r.other_s, r.result
+                r.factorizations, r.assembly_s, r.assemblies, r.residual_only_s, r.residual_evaluations, r.factorization_s, r.solve_s, r.relaxation_s, r.other_s, r.result
             );
             for (step, increments, iterations, cutbacks, wall) in &r.steps {
                 println!("    {step:<14} {increments:>4} increments {iterations:>5} iterations {cutbacks:>3} cutbacks {wall:>8.2} s");

@@ -460,6 +460,7 @@ impl Problem {
             st.add_forces(&self.u, &mut self.residual);
         }
         self.timings.residual_only_s += start.elapsed().as_secs_f64();
+        self.timings.residual_evaluations += 1;
         Ok(())
     }
 
@@ -610,9 +611,11 @@ impl Problem {
         self.factorize_and_solve()
     }
 
-    /// Residual only at `u + s δ` (into `residual_trial`); returns δ·R(s) on free DOFs.
+    /// Residual only at `u + s δ` (into `residual_trial`, with its magnitude and energy);
+    /// returns δ·R(s) on free DOFs.
     fn trial_projection(&mut self, s: f64) -> Result<f64, FailureReason> {
         let start = Instant::now();
+        self.work.trial_step = None;
         for d in 0..self.u.len() {
             self.work.trial[d] = self.u[d] + s * self.work.delta[d];
         }
@@ -624,19 +627,21 @@ impl Problem {
         );
         let output = AssemblyOutput {
             residual: &mut self.work.residual_trial,
-            magnitude: None,
+            magnitude: Some(&mut self.work.magnitude_trial),
             tangent: None,
             predictor: None,
         };
         let condensation = &mut self.condensation;
-        self.pool.install(|| match condensation {
+        self.work.energy_trial = self.pool.install(|| match condensation {
             Some(c) => c.assemble(assembler, terms, trial, prescribed, output),
             None => assembler.assemble(terms, trial, prescribed, output),
         })?;
         if let Some(st) = &self.stabilizer {
             st.add_forces(&self.work.trial, &mut self.work.residual_trial);
         }
+        self.work.trial_step = Some(s);
         self.timings.residual_only_s += start.elapsed().as_secs_f64();
+        self.timings.residual_evaluations += 1;
         Ok(self.projection(&self.work.residual_trial))
     }
 
@@ -702,6 +707,15 @@ impl Problem {
         }
         if let Some(tolerance) = relax {
             self.relax_blocks(tolerance);
+        } else if !with_tangent && self.work.trial_step == Some(s) {
+            // `u` is now the last trial point, bit for bit (the same sum as in
+            // `trial_projection`): its residual is already there.
+            let work = &mut self.work;
+            std::mem::swap(&mut self.residual, &mut work.residual_trial);
+            std::mem::swap(&mut work.magnitude, &mut work.magnitude_trial);
+            self.energy = work.energy_trial;
+            work.trial_step = None;
+            return Ok(s);
         }
         self.evaluate(with_tangent)?;
         Ok(s)

@@ -23,6 +23,12 @@ pub(super) struct Work {
     pub trial: Vec<f64>,
     pub du_prescribed: Vec<f64>,
     pub residual_trial: Vec<f64>,
+    /// The magnitude and energy that go with `residual_trial`, and the step length it was
+    /// evaluated at (None once `residual_trial` no longer describes a trial point): the
+    /// line search's accepted trial becomes the new state without a second assembly.
+    pub magnitude_trial: Vec<f64>,
+    pub energy_trial: f64,
+    pub trial_step: Option<f64>,
     pub magnitude: Vec<f64>,
     pub history: Vec<f64>,
     /// Force scale of the last measured iteration (nN).
@@ -51,6 +57,8 @@ pub struct Timings {
     pub solve_s: f64,
     /// Number of tangent assemblies.
     pub assemblies: usize,
+    /// Number of residual-only assemblies (timed in `residual_only_s`).
+    pub residual_evaluations: usize,
     /// Number of numeric factorisations.
     pub factorizations: usize,
     /// Newton corrections solved with an earlier factorisation near convergence (chord
@@ -186,6 +194,9 @@ impl Problem {
                 trial: vec![0.0; n],
                 du_prescribed: vec![0.0; n],
                 residual_trial: vec![0.0; n],
+                magnitude_trial: vec![0.0; n],
+                energy_trial: 0.0,
+                trial_step: None,
                 magnitude: vec![0.0; n],
                 history: Vec::with_capacity(64),
                 scale: 0.0,
