@@ -39,7 +39,7 @@ where
         let file = writer.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
         drop(file);
-        commit_temp(&temp, path)
+        rename_durably(&temp, path)
     })();
     if result.is_err() {
         let _ = fs::remove_file(&temp);
@@ -66,6 +66,11 @@ pub(crate) fn temp_path(target: &Path, ext: &str) -> PathBuf {
 /// directory so that the rename itself is durable.
 pub(crate) fn commit_temp(temp: &Path, target: &Path) -> io::Result<()> {
     File::open(temp)?.sync_all()?;
+    rename_durably(temp, target)
+}
+
+/// Renames an already synced temporary file over `target` and fsyncs the directory.
+fn rename_durably(temp: &Path, target: &Path) -> io::Result<()> {
     fs::rename(temp, target)?;
     #[cfg(unix)]
     {

@@ -3,8 +3,15 @@
 //! Strategy: the whole file is rewritten atomically ([`crate::write_atomic`]) after each row.
 //! This costs O(rows²) bytes in total, which is negligible for load curves (< 10 000 rows) and
 //! guarantees that the file on disk is always a complete CSV with all finished rows.
+//!
+//! A table that grows by many rows per result (a row per Newton iteration) can use
+//! [`CurveWriter::push_row_deferred`]: its rows reach the disk at most `max_age` late, or at
+//! the next [`CurveWriter::flush`] or `push_row`, and the file on disk is still always a
+//! complete CSV.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use crate::atomic::write_atomic;
 use crate::error::WriteError;
@@ -16,6 +23,9 @@ pub struct CurveWriter {
     path: PathBuf,
     columns: usize,
     text: String,
+    /// Bytes of `text` on disk, and when they were written.
+    persisted: usize,
+    persisted_at: Instant,
 }
 
 /// A curve row or header that cannot be written.
@@ -82,18 +92,50 @@ impl CurveWriter {
                 });
             }
         }
-        let writer = CurveWriter {
+        let mut writer = CurveWriter {
             path: path.to_path_buf(),
             columns: columns.len(),
             text: columns.join(",") + "\n",
+            persisted: 0,
+            persisted_at: Instant::now(),
         };
-        write_atomic(&writer.path, writer.text.as_bytes())?;
+        writer.persist()?;
         Ok(writer)
     }
 
     /// Appends a row and persists the file. Values use Rust's shortest exact representation
     /// (`NaN`, `inf` and `-inf` for non-finite values).
     pub fn push_row(&mut self, values: &[f64]) -> Result<(), CsvError> {
+        let before = self.append_row(values)?;
+        if let Err(e) = self.persist() {
+            self.text.truncate(before);
+            return Err(e);
+        }
+        Ok(())
+    }
+
+    /// Appends a row like [`Self::push_row`], but persists the file only when it was last
+    /// written at least `max_age` ago (then with every row so far); [`Self::flush`] or the
+    /// next `push_row` writes the rest. A failed write keeps the rows for the next one.
+    pub fn push_row_deferred(&mut self, values: &[f64], max_age: Duration) -> Result<(), CsvError> {
+        self.append_row(values)?;
+        if self.persisted_at.elapsed() >= max_age {
+            self.persist()?;
+        }
+        Ok(())
+    }
+
+    /// Writes the rows that [`Self::push_row_deferred`] has not written yet (nothing when
+    /// there are none).
+    pub fn flush(&mut self) -> Result<(), CsvError> {
+        if self.persisted != self.text.len() {
+            self.persist()?;
+        }
+        Ok(())
+    }
+
+    /// Appends one row of numbers to the text; returns the text's length before it.
+    fn append_row(&mut self, values: &[f64]) -> Result<usize, CsvError> {
         if values.len() != self.columns {
             return Err(CsvError::RowLength {
                 path: self.path.clone(),
@@ -106,13 +148,17 @@ impl CurveWriter {
             if i > 0 {
                 self.text.push(',');
             }
-            self.text.push_str(&format!("{v:?}"));
+            let _ = write!(self.text, "{v:?}");
         }
         self.text.push('\n');
-        if let Err(e) = write_atomic(&self.path, self.text.as_bytes()) {
-            self.text.truncate(before);
-            return Err(e.into());
-        }
+        Ok(before)
+    }
+
+    /// Rewrites the file atomically with the whole text.
+    fn persist(&mut self) -> Result<(), CsvError> {
+        write_atomic(&self.path, self.text.as_bytes())?;
+        self.persisted = self.text.len();
+        self.persisted_at = Instant::now();
         Ok(())
     }
 
@@ -120,7 +166,6 @@ impl CurveWriter {
     /// persists the file once: a table with many rows per increment (e.g. one per filament)
     /// costs one atomic rewrite per increment. Nothing is appended on error.
     pub fn push_records(&mut self, rows: &[Vec<CsvCell<'_>>]) -> Result<(), CsvError> {
-        use std::fmt::Write as _;
         let before = self.text.len();
         for row in rows {
             if row.len() != self.columns {
@@ -157,9 +202,9 @@ impl CurveWriter {
             }
             self.text.push('\n');
         }
-        if let Err(e) = write_atomic(&self.path, self.text.as_bytes()) {
+        if let Err(e) = self.persist() {
             self.text.truncate(before);
-            return Err(e.into());
+            return Err(e);
         }
         Ok(())
     }
@@ -194,6 +239,32 @@ mod tests {
             .map(|r| r.unwrap().iter().map(|v| v.parse().unwrap()).collect())
             .collect();
         assert_eq!(rows, vec![vec![0.1, 1.0 / 3.0], vec![-2e-12, 5.0]]);
+    }
+
+    #[test]
+    fn deferred_rows_reach_the_disk_when_due_or_flushed() {
+        let dir = scratch_dir("csv-deferred");
+        let path = dir.join("iterations.csv");
+        let mut w = CurveWriter::create(&path, &["iteration", "residual"]).unwrap();
+        let on_disk = || std::fs::read_to_string(&path).unwrap();
+        w.push_row_deferred(&[1.0, 0.5], Duration::from_secs(3600))
+            .unwrap();
+        w.push_row_deferred(&[2.0, 0.25], Duration::from_secs(3600))
+            .unwrap();
+        assert_eq!(on_disk(), "iteration,residual\n", "not due yet");
+        w.flush().unwrap();
+        assert_eq!(on_disk(), "iteration,residual\n1.0,0.5\n2.0,0.25\n");
+        w.push_row_deferred(&[3.0, 0.125], Duration::ZERO).unwrap();
+        assert_eq!(on_disk().lines().count(), 4, "due at once");
+        w.push_row_deferred(&[4.0, 0.0625], Duration::from_secs(3600))
+            .unwrap();
+        w.push_row(&[5.0, 0.0]).unwrap();
+        assert_eq!(
+            on_disk().lines().count(),
+            6,
+            "push_row writes the pending row too"
+        );
+        assert!(w.push_row_deferred(&[1.0], Duration::ZERO).is_err());
     }
 
     #[test]

@@ -65,8 +65,11 @@ const ROW_BLOCK: usize = 256;
 const MAX_UPDATE_SPLITS: usize = 2;
 
 /// A supernode of the top of the tree (factorised while nothing else runs) with at least
-/// this many flops of its own uses the pool's threads in its dense kernels.
-const MIN_DENSE_PARALLEL_FLOPS: f64 = 5e7;
+/// this many flops of its own uses the pool's threads in its dense kernels. Measured
+/// (docs/performance.md, eighth session): at 5e7 the 9k-DOF sphere's top kernels split
+/// into so many tasks that a run made 346 000 futex calls (7 000 with 1e9) for the same
+/// factorisation time; at 32k and 100k DOFs 1e9 and 5e7 factorise equally fast.
+const MIN_DENSE_PARALLEL_FLOPS: f64 = 1e9;
 
 /// The structure, computed once per pattern.
 pub(crate) struct TreeCholesky {
