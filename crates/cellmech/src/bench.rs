@@ -292,6 +292,9 @@ pub struct AnalysisBench {
     pub other_s: f64,
     /// Per step: name, increments, iterations, cutbacks, wall time (s).
     pub steps: Vec<(String, usize, usize, usize, f64)>,
+    /// Per step (in the order of `steps`): where its time went.
+    #[serde(default)]
+    pub step_splits: Vec<crate::output::StepSplit>,
     /// The headline result: the protocol's last force, or the last value of the first
     /// force column (nN).
     pub result: f64,
@@ -389,6 +392,7 @@ fn measure(
                 )
             })
             .collect(),
+        step_splits: summary.steps.iter().map(|s| s.split).collect(),
         result,
     })
 }

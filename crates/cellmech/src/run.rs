@@ -11,7 +11,7 @@ use cellmech_fem::solve::{
 use serde::Serialize;
 
 use crate::model::{build, BuildError};
-use crate::output::{OutputWriter, StepStats};
+use crate::output::{OutputWriter, StepSplit, StepStats};
 
 use crate::analysis::{Analysis, CellStudy};
 
@@ -170,9 +170,18 @@ pub fn run_with_threads(
     // Steps that ran to their end (a failed step's converged increments are written, but it
     // did not reach its end).
     let mut completed_steps = 0;
-    for step in &model.steps {
+    for (index, step) in model.steps.iter().enumerate() {
         let mut tee = Tee(&mut writer, progress);
-        if let Err(e) = model.problem.run_step(step, &mut tee) {
+        let before = model.problem.timings();
+        let result = model.problem.run_step(step, &mut tee);
+        // (A step that failed before it started has no statistics of its own.)
+        if let Some(s) = writer.stats.get_mut(index).filter(|s| s.name == step.name) {
+            s.split = StepSplit {
+                output_s: s.split.output_s,
+                ..StepSplit::between(&before, &model.problem.timings())
+            };
+        }
+        if let Err(e) = result {
             failure = Some(e);
             break;
         }
@@ -181,6 +190,7 @@ pub fn run_with_threads(
             return Err(RunError::Output(e));
         }
     }
+    writer.flush_tables();
     let mut files = vec![
         "curve.csv".to_string(),
         "convergence.csv".into(),

@@ -88,8 +88,16 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
                 r.name, r.elements, r.dofs, if r.coarse { ", coarse" } else { "" }, r.wall_s, r.iterations,
                 r.factorizations, r.assembly_s, r.assemblies, r.residual_only_s, r.residual_evaluations, r.factorization_s, r.solve_s, r.relaxation_s, r.other_s, r.result
             );
-            for (step, increments, iterations, cutbacks, wall) in &r.steps {
+            for (i, (step, increments, iterations, cutbacks, wall)) in r.steps.iter().enumerate() {
                 println!("    {step:<14} {increments:>4} increments {iterations:>5} iterations {cutbacks:>3} cutbacks {wall:>8.2} s");
+                if let Some(s) = r.step_splits.get(i) {
+                    println!(
+                        "    {:<14} assembly {:.2} s ({}), residual-only {:.2} s ({}), factorisation {:.2} s ({}), solve {:.2} s, relaxation {:.2} s, contact/augmentation rounds {}, output {:.2} s",
+                        "", s.assembly_s, s.assemblies, s.residual_only_s, s.residual_evaluations,
+                        s.factorization_s, s.factorizations, s.solve_s, s.relaxation_s,
+                        s.augmentations, s.output_s
+                    );
+                }
             }
             if let Some(b) = baseline
                 .iter()

@@ -212,6 +212,7 @@ impl Problem {
                     Some((message, multipliers_only)) => {
                         same_tangent = multipliers_only;
                         augmentations += 1;
+                        self.timings.augmentations += 1;
                         if augmentations > conv.max_augmentations {
                             return Err(FailureReason::Unsettled(format!(
                                 "{augmentations} augmentations without settling: {message}"

@@ -59,6 +59,9 @@ pub struct Timings {
     pub assemblies: usize,
     /// Number of residual-only assemblies (timed in `residual_only_s`).
     pub residual_evaluations: usize,
+    /// Extra Newton rounds started because a term augmented after convergence (a contact
+    /// status change or a multiplier update).
+    pub augmentations: usize,
     /// Number of numeric factorisations.
     pub factorizations: usize,
     /// Newton corrections solved with an earlier factorisation near convergence (chord

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use cellmech_fem::element::KernelError;
 use cellmech_fem::solve::{
     FailureReason, IncrementReport, IterationReport, Observer, Problem, StabilizationReport,
+    Timings,
 };
 use cellmech_io::{CurveWriter, Field, PvdSeries, VtuBlock, VtuFrame};
 
@@ -40,6 +41,51 @@ pub struct StepStats {
     pub stabilized_increments: usize,
     /// Largest damping factor used in the step.
     pub max_stabilization_factor: f64,
+    /// Where the step's time went.
+    pub split: StepSplit,
+}
+
+/// The time split of one step: the solver's parts (from [`Timings`]) and the output.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StepSplit {
+    /// Residual and tangent assembly (s).
+    pub assembly_s: f64,
+    /// Residual and tangent assemblies.
+    pub assemblies: usize,
+    /// Residual-only assembly (s).
+    pub residual_only_s: f64,
+    /// Residual-only assemblies.
+    pub residual_evaluations: usize,
+    /// Numeric factorisation (s).
+    pub factorization_s: f64,
+    /// Numeric factorisations.
+    pub factorizations: usize,
+    /// Triangular solves (s).
+    pub solve_s: f64,
+    /// The relaxation blocks' local solves (s).
+    pub relaxation_s: f64,
+    /// Extra Newton rounds started by contact status changes or multiplier updates.
+    pub augmentations: usize,
+    /// Writing results (curves, tables, VTU frames) while the step ran (s).
+    pub output_s: f64,
+}
+
+impl StepSplit {
+    /// The solver's part of the split between two readings of [`Timings`] (output: 0).
+    pub fn between(before: &Timings, after: &Timings) -> Self {
+        StepSplit {
+            assembly_s: after.assembly_s - before.assembly_s,
+            assemblies: after.assemblies - before.assemblies,
+            residual_only_s: after.residual_only_s - before.residual_only_s,
+            residual_evaluations: after.residual_evaluations - before.residual_evaluations,
+            factorization_s: after.factorization_s - before.factorization_s,
+            factorizations: after.factorizations - before.factorizations,
+            solve_s: after.solve_s - before.solve_s,
+            relaxation_s: after.relaxation.seconds - before.relaxation.seconds,
+            augmentations: after.augmentations - before.augmentations,
+            output_s: 0.0,
+        }
+    }
 }
 
 /// Writes outputs as the solver converges increments.
@@ -262,6 +308,19 @@ impl OutputWriter {
         }
     }
 
+    /// Adds the time since `start` to the current step's output time.
+    fn add_output_time(&mut self, start: std::time::Instant) {
+        if let Some(s) = self.stats.last_mut() {
+            s.split.output_s += start.elapsed().as_secs_f64();
+        }
+    }
+
+    /// Writes the table rows still held in memory (`convergence.csv`'s last rows).
+    pub fn flush_tables(&mut self) {
+        let result = self.convergence_csv.flush();
+        self.record(result);
+    }
+
     /// Evaluates every filament, appends its `filaments.csv` rows, keeps the snapshot and
     /// returns the `curve.csv` values (`None` without filaments; NaN if the evaluation failed).
     fn record_filaments(
@@ -318,6 +377,7 @@ impl Observer for OutputWriter {
     }
 
     fn on_iteration(&mut self, r: &IterationReport) {
+        let start = std::time::Instant::now();
         let step = self.stats.len().saturating_sub(1);
         if let Some(s) = self.stats.last_mut() {
             s.iterations += 1;
@@ -333,12 +393,20 @@ impl Observer for OutputWriter {
             r.correction_norm,
             f64::from(u8::from(r.chord)),
         ];
-        let result = self.convergence_csv.push_row(&row);
+        // A row per Newton iteration: written at least once a second and at the end of
+        // every increment or failed attempt (`flush` below), not a file rewrite each.
+        let result = self
+            .convergence_csv
+            .push_row_deferred(&row, CONVERGENCE_MAX_AGE);
         self.record(result);
+        self.add_output_time(start);
     }
 
     fn on_increment(&mut self, problem: &Problem, report: &IncrementReport<'_>) {
+        let start = std::time::Instant::now();
         self.attempt += 1;
+        let result = self.convergence_csv.flush();
+        self.record(result);
         let elapsed = self.step_start.elapsed().as_secs_f64();
         if let Some(s) = self.stats.last_mut() {
             s.increments += 1;
@@ -394,16 +462,23 @@ impl Observer for OutputWriter {
             report.total_time,
             due,
         );
+        self.add_output_time(start);
     }
 
     fn on_cutback(&mut self, _t: f64, _dt: f64, reason: &FailureReason) {
         self.attempt += 1;
+        let result = self.convergence_csv.flush();
+        self.record(result);
         if let Some(s) = self.stats.last_mut() {
             s.cutbacks += 1;
             s.cutback_reasons.push(reason.to_string());
         }
     }
 }
+
+/// The longest a `convergence.csv` row waits in memory before the file is rewritten (rows
+/// are also written at the end of every increment and failed attempt).
+const CONVERGENCE_MAX_AGE: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Writes the current state as one frame of the series: reference points with the
 /// displacement field (use ParaView's "Warp By Vector") and any `extra` point fields, and
