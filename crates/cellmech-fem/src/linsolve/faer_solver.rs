@@ -705,13 +705,16 @@ impl FaerSparseSolver {
         Ok((par, a))
     }
 
-    /// The parallelism of the current factor's solves.
+    /// The parallelism of the current factor's solves: always sequential. faer's parallel
+    /// triangular solves sum in another order than its sequential ones, so above
+    /// `parallel_min_flops` the results depended on the thread count (8.8e-16 relative on
+    /// the fine suspended mesh); sequential solves make them bitwise the same on any number
+    /// of threads and cost 0.5 s of 48 s there (docs/performance.md, eighth session).
     fn solve_par(&self) -> Result<Par, LinSolveError> {
-        let a = self
-            .analysis
+        self.analysis
             .as_ref()
             .ok_or_else(|| usage("solve before analyze"))?;
-        Ok(self.factor_par(a))
+        Ok(Par::Seq)
     }
 
     /// Single precision did not resolve the matrix: double precision from now on.
