@@ -313,6 +313,16 @@ fn bench_analyses_short_mode_reports_the_cost_and_compares_with_a_baseline() {
         (split - plates["wall_s"].as_f64().unwrap()).abs() < 1e-9,
         "{plates}"
     );
+    // The split per step adds up to the analysis' counts.
+    let steps = plates["step_splits"].as_array().unwrap();
+    assert_eq!(steps.len(), plates["steps"].as_array().unwrap().len());
+    let per_step = |key: &str| -> u64 { steps.iter().map(|s| s[key].as_u64().unwrap()).sum() };
+    assert_eq!(per_step("factorizations"), factorizations, "{plates}");
+    assert_eq!(
+        per_step("assemblies"),
+        plates["assemblies"].as_u64().unwrap()
+    );
+    assert!(steps.iter().all(|s| s["output_s"].as_f64().unwrap() > 0.0));
     // The plate-compression example's force at 30 % (tests/tools.rs checks it against FEBio):
     // 52.33 nN from the extrapolated start (52.40 from the converged one; both 52.40 with a
     // 10x tighter contact tolerance: the difference is the default tolerance's band,
@@ -332,7 +342,9 @@ fn bench_analyses_short_mode_reports_the_cost_and_compares_with_a_baseline() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
-        text.contains("vs baseline") && text.contains("iterations x1.000"),
+        text.contains("vs baseline")
+            && text.contains("iterations x1.000")
+            && text.contains("contact/augmentation rounds"),
         "{text}"
     );
 }
