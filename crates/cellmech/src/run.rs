@@ -190,7 +190,13 @@ pub fn run_with_threads(
             return Err(RunError::Output(e));
         }
     }
-    writer.flush_tables();
+    // The last iteration rows; a write error is reported unless the analysis already
+    // failed (its own error says more, and the rows were written at its last cut-back).
+    if let Err(e) = writer.flush_tables() {
+        if failure.is_none() {
+            return Err(RunError::Output(e));
+        }
+    }
     let mut files = vec![
         "curve.csv".to_string(),
         "convergence.csv".into(),

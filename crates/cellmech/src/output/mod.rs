@@ -316,9 +316,8 @@ impl OutputWriter {
     }
 
     /// Writes the table rows still held in memory (`convergence.csv`'s last rows).
-    pub fn flush_tables(&mut self) {
-        let result = self.convergence_csv.flush();
-        self.record(result);
+    pub fn flush_tables(&mut self) -> Result<(), String> {
+        self.convergence_csv.flush().map_err(|e| e.to_string())
     }
 
     /// Evaluates every filament, appends its `filaments.csv` rows, keeps the snapshot and
