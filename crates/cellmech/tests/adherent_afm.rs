@@ -7,13 +7,16 @@ use cellmech::experiment::{CellModel, Experiment};
 use cellmech::protocol::{AfmIndentation, Protocol};
 
 /// A coarse cell (base 8/2/2: 2048 hex8; coarser bases crowd the 16 FAs) refined to
-/// 0.15 µm at the site.
+/// 0.15 µm within 0.6 µm of the site, growing 1:1 beyond (the default refinement before
+/// 2026-12-05: CI size).
 fn coarse_cell() -> AdherentCell {
     let mut cell = AdherentCell::default();
     cell.params.mesh.core_divisions = 8;
     cell.params.mesh.shell_layers = 2;
     cell.params.mesh.outer_layers = 2;
     cell.params.refinement.element_size = 0.15;
+    cell.params.refinement.fine_radius = 0.6;
+    cell.params.refinement.grading = 1.0;
     cell
 }
 

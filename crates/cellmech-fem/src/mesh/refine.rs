@@ -33,8 +33,9 @@ use super::surface::{orientation, SurfaceError, HEX8_CORNERS, HEX8_FACES};
 use super::{ElementBlock, ElementKind, Mesh, MeshError};
 
 /// Largest level [`refine_hex8`] accepts from its callback (each level halves the element
-/// size: level 6 is 64 times finer than the input).
-pub const MAX_REFINEMENT_LEVEL: u8 = 6;
+/// size: level 10 is 1024 times finer than the input; the AFM tip's apex in the adherent
+/// cell wants 7 to 8 levels below its 3.4 µm base elements).
+pub const MAX_REFINEMENT_LEVEL: u8 = 10;
 
 /// Largest number of elements [`refine_hex8`] will produce.
 pub const MAX_REFINED_ELEMENTS: usize = 20_000_000;

@@ -574,6 +574,7 @@ mod tests {
                     cell.params.mesh.shell_layers = 2;
                     cell.params.mesh.outer_layers = 2;
                     cell.params.refinement.element_size = 0.5;
+                    cell.params.refinement.grading = 1.0;
                     cell.site = protocol.indentation_site();
                     cell.build().unwrap()
                 } else {

@@ -50,17 +50,24 @@ pub enum IndentationSite {
 }
 
 /// Local refinement at the indentation site: every hex8 is split (octree, 2:1 balanced,
-/// hanging nodes tied) until its longest edge is at most
-/// `max(element_size, grading × (distance − fine_radius))`, the distance measured from
-/// the site to the element's nearest corner.
+/// hanging nodes tied) until its longest edge is at most the wanted size
+/// [`LocalRefinement::target_size`] at its distance from the site (measured to the
+/// element's nearest point of its bounding sphere): `element_size` within `fine_radius`,
+/// then growing with slope `grading` over `graded_width`, then with slope `far_grading`.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct LocalRefinement {
     /// Element size wanted within `fine_radius` of the site (µm).
     pub element_size: f64,
     /// Radius of the region of finest elements (µm): the material the tip touches.
     pub fine_radius: f64,
-    /// Growth of the element size with the distance beyond `fine_radius`.
+    /// Growth of the element size with the distance beyond `fine_radius` (size per
+    /// distance), over `graded_width`.
     pub grading: f64,
+    /// Width of the band beyond `fine_radius` in which the size grows with slope
+    /// `grading` (µm); beyond it the slope is `far_grading`.
+    pub graded_width: f64,
+    /// Growth of the element size beyond `fine_radius + graded_width`.
+    pub far_grading: f64,
     /// Most levels of splitting.
     pub max_levels: u8,
 }
@@ -76,11 +83,23 @@ impl LocalRefinement {
         let centroid: V3 = std::array::from_fn(|k| x.iter().map(|p| p[k]).sum::<f64>() / 8.0);
         let radius = x.iter().map(|p| distance(*p, centroid)).fold(0.0, f64::max);
         let d = (distance(centroid, site) - radius).max(0.0);
-        let target = self.element_size.max(self.grading * (d - self.fine_radius));
+        let target = self.target_size(d);
         if longest <= target {
             return 0;
         }
         (longest / target).log2().ceil().min(16.0) as u8
+    }
+
+    /// The largest element edge wanted at distance `d` (µm) from the site: `element_size`
+    /// within `fine_radius`; beyond it `grading × (d − fine_radius)` up to `graded_width`,
+    /// then growing with slope `far_grading`; never below `element_size`. Continuous and
+    /// non-decreasing in `d`.
+    pub fn target_size(&self, d: f64) -> f64 {
+        let beyond = (d - self.fine_radius).max(0.0);
+        let near = beyond.min(self.graded_width);
+        let far = (beyond - self.graded_width).max(0.0);
+        self.element_size
+            .max(self.grading * near + self.far_grading * far)
     }
 }
 
@@ -250,12 +269,18 @@ impl AdherentCellParams {
             ));
         }
         let r = self.refinement;
-        if !(r.element_size > 0.0 && r.fine_radius >= 0.0 && r.grading > 0.0) {
+        if !(r.element_size > 0.0
+            && r.fine_radius >= 0.0
+            && r.grading > 0.0
+            && r.graded_width >= 0.0
+            && r.far_grading > 0.0)
+        {
             return Err(fail(
                 "refinement",
                 format!(
-                    "expected element_size > 0, fine_radius ≥ 0, grading > 0; found {}, {}, {}",
-                    r.element_size, r.fine_radius, r.grading
+                    "expected element_size > 0, fine_radius ≥ 0, grading > 0, graded_width ≥ 0, \
+                     far_grading > 0; found {}, {}, {}, {}, {}",
+                    r.element_size, r.fine_radius, r.grading, r.graded_width, r.far_grading
                 ),
             ));
         }
@@ -816,5 +841,34 @@ mod tests {
             err.contains("refinement") && err.contains("element_size"),
             "{err}"
         );
+    }
+
+    /// The wanted size: the plateau, the near slope over the graded band, the far slope
+    /// beyond it, continuous at both kinks; an infinite band is the single-slope rule.
+    #[test]
+    fn the_wanted_size_has_a_plateau_then_two_slopes() {
+        let r = LocalRefinement {
+            element_size: 0.05,
+            fine_radius: 0.2,
+            grading: 0.25,
+            graded_width: 1.0,
+            far_grading: 1.0,
+            max_levels: 8,
+        };
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(close(r.target_size(0.0), 0.05) && close(r.target_size(0.3), 0.05));
+        assert!(close(r.target_size(0.2 + 0.8), 0.2)); // 0.25 × 0.8
+        assert!(close(r.target_size(1.2), 0.25)); // the band's end
+        assert!(close(r.target_size(3.2), 0.25 + 2.0)); // far slope 1
+        for k in 0..400 {
+            let d = 0.01 * k as f64;
+            assert!(r.target_size(d + 0.01) >= r.target_size(d));
+            assert!(r.target_size(d + 0.01) - r.target_size(d) <= 0.01 + 1e-12);
+        }
+        let single = LocalRefinement {
+            graded_width: 1000.0,
+            ..r
+        };
+        assert!(close(single.target_size(5.2), 0.25 * 5.0));
     }
 }
