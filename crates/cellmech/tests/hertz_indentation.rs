@@ -479,15 +479,19 @@ fn reach(refinement: AxisRefinement) -> Reach {
     };
     let base = Block { grading, size: 8.0 }.mesh();
     let refined = refine_hex8_by_level(&base, |x, level| {
-        // Cells are axis-aligned boxes: the edge from the bounding box, the distance
-        // to the nearest corner.
-        let edge = (0..3)
-            .map(|k| {
-                let lo = x.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min);
-                let hi = x.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max);
-                hi - lo
+        // The size of a cell: the edge of the cube with its longest corner-to-corner
+        // distance (so the graded base's elongated far-field cells count as their mean
+        // size and are left alone); the distance to its nearest corner.
+        let diagonal = (0..8)
+            .flat_map(|a| (0..8).map(move |b| (a, b)))
+            .map(|(a, b)| {
+                (0..3)
+                    .map(|k| (x[a][k] - x[b][k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
             })
             .fold(0.0, f64::max);
+        let edge = diagonal / 3f64.sqrt();
         let distance = x
             .iter()
             .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
@@ -541,9 +545,9 @@ fn reach(refinement: AxisRefinement) -> Reach {
 /// set by how finely the mesh is graded around the tip's axis, not by the element size at
 /// the apex alone: refined to R/8 within 0.1 µm and half the distance beyond, the block
 /// stalls near d = 3.3 R; graded as a quarter of the distance from the contact point, the
-/// tip goes about 1.5 times as deep. (Measured with the same meshes built from the cells'
-/// diagonals, 2026-12-05, 1 thread: 0.653 µm / 0.194 nN on 4033 hex8 in 66 s, and
-/// 0.967 µm / 0.344 nN on 4803 hex8 in 95 s; both stall with Newton's residual stagnating
+/// tip goes about 1.5 times as deep. (Measured 2026-12-05, 1 thread, 283 s in all with the
+/// other core busy: 0.653 µm / 0.1944 nN on 4033 hex8, and 0.967 µm / 0.3440 nN on
+/// 4803 hex8; both stall with Newton's residual stagnating
 /// at 1e-5 to 1e-4 of the force scale in increments of 1e-5 of the step, no element
 /// inverted, the surface nodes near the apex drifting round the axis towards the symmetry
 /// planes.)
