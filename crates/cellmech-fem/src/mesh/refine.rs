@@ -800,9 +800,9 @@ mod tests {
     #[test]
     fn refine_rejects_bad_input_with_clear_errors() {
         let mut mesh = box_mesh([0.0; 3], [1.0; 3], [1, 1, 1], "b").unwrap();
-        let e = refine_hex8(&mesh, |_| 7).unwrap_err();
+        let e = refine_hex8(&mesh, |_| MAX_REFINEMENT_LEVEL + 1).unwrap_err();
         assert!(
-            e.to_string().contains("wanted level 7") && e.to_string().contains("maximum 6"),
+            e.to_string().contains("wanted level 11") && e.to_string().contains("maximum 10"),
             "{e}"
         );
         mesh.blocks.push(ElementBlock {
