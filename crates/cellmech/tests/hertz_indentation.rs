@@ -33,6 +33,7 @@
 
 use std::time::Instant;
 
+use cellmech::cell::adherent::LocalRefinement;
 use cellmech::protocol::apparent_modulus::{
     fit_apparent_modulus, write_fit_plot, ApparentModulusFit, ContactPoint, FitSettings,
 };
@@ -450,13 +451,16 @@ fn a_sharp_tip_indents_to_two_and_a_half_tip_radii() {
 // How deep the sharp tip gets, against the mesh around its axis.
 // ---------------------------------------------------------------------------------------
 
-/// Octree refinement of a quarter block around the tip's contact point (the origin):
-/// cell edge ≤ max(smallest, slope × (distance − plateau)).
-#[derive(Debug, Clone, Copy)]
-struct AxisRefinement {
-    smallest: f64,
-    plateau: f64,
-    slope: f64,
+/// The single-slope size rule: max(smallest, slope × (distance − plateau)).
+fn axis_refinement(smallest: f64, plateau: f64, slope: f64) -> LocalRefinement {
+    LocalRefinement {
+        element_size: smallest,
+        fine_radius: plateau,
+        grading: slope,
+        graded_width: f64::INFINITY,
+        far_grading: 1.0,
+        max_levels: 10,
+    }
 }
 
 /// The deepest converged tip depth (µm), the full force there (nN) and the mesh size.
@@ -468,9 +472,10 @@ struct Reach {
 
 /// Drives the tip towards 2.5 µm (increments of 0.05 µm, cut back down to 1e-5 of the
 /// step) into an 8 µm block of 0.2 µm cells within 1.6 µm of the axis (growing 1.5×
-/// beyond), octree-refined by `refinement` with the hanging nodes tied; penalty
+/// beyond), octree-refined around the tip's contact point (the origin) to the adherent
+/// cell's size rule `refinement.target_size` with the hanging nodes tied; penalty
 /// 50 G × 0.2 µm, tolerance 2 nm. Returns where it stopped.
-fn reach(refinement: AxisRefinement) -> Reach {
+fn reach(refinement: LocalRefinement) -> Reach {
     let base_size = 0.2;
     let grading = AxisGrading {
         fine_size: base_size,
@@ -496,9 +501,7 @@ fn reach(refinement: AxisRefinement) -> Reach {
             .iter()
             .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
             .fold(f64::INFINITY, f64::min);
-        let target = refinement
-            .smallest
-            .max(refinement.slope * (distance - refinement.plateau));
+        let target = refinement.target_size(distance);
         if edge <= target * (1.0 + 1e-9) {
             level
         } else {
@@ -554,16 +557,8 @@ fn reach(refinement: AxisRefinement) -> Reach {
 #[test]
 #[ignore = "a few minutes on 1 core: cargo test --release -p cellmech --test hertz_indentation -- --ignored --nocapture the_tip_goes"]
 fn the_tip_goes_deeper_on_a_mesh_graded_around_its_axis() {
-    let apex_only = reach(AxisRefinement {
-        smallest: 0.025,
-        plateau: 0.1,
-        slope: 0.5,
-    });
-    let graded = reach(AxisRefinement {
-        smallest: 0.0125,
-        plateau: 0.0,
-        slope: 0.25,
-    });
+    let apex_only = reach(axis_refinement(0.025, 0.1, 0.5));
+    let graded = reach(axis_refinement(0.0125, 0.0, 0.25));
     for (name, r) in [("apex only", &apex_only), ("graded", &graded)] {
         eprintln!(
             "{name}: {} hex8, deepest converged depth {:.3} um ({:.2} R), force {:.4} nN",
