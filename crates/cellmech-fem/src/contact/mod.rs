@@ -120,6 +120,20 @@ pub struct RigidContact {
     /// Pilot-point displacement where the current step started: a step may have ended early
     /// (stop condition), so the next one moves on from there by its own program increment.
     step_start: [f64; 3],
+    /// Where the tool is aimed ([`RigidContact::aimed_at`]), if anywhere.
+    aim: Option<Aim>,
+}
+
+/// A tool aimed at a body node: at the start of `step` the pilot point is moved across the
+/// step's motion by the node's displacement across it, so the tool comes down over where
+/// the node is then rather than where it was in the reference configuration (an AFM tip
+/// positioned over a focal adhesion of the prestressed cell).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Aim {
+    node: usize,
+    step: usize,
+    /// The node's displacement at the last committed increment (µm).
+    committed: [f64; 3],
 }
 
 /// Why a contact could not be set up.
@@ -320,6 +334,7 @@ impl RigidContact {
             last_step: 0,
             started_step: None,
             step_start: [0.0; 3],
+            aim: None,
         };
         contact.committed_positions = (0..n)
             .map(|q| contact.point_position(q, |_, _| 0.0))
@@ -331,6 +346,37 @@ impl RigidContact {
     pub fn with_curvature_tangent(mut self, curvature: CurvatureTangent) -> Self {
         self.curvature_tangent = curvature;
         self
+    }
+
+    /// The same contact, aimed at body node `node` from analysis step `step` on: when that
+    /// step starts, the pilot point is moved across the step's motion (perpendicular to
+    /// it) by the node's committed displacement across it, and the step's motion goes on
+    /// from there. The tool's own displacement outputs show the move.
+    pub fn aimed_at(mut self, node: usize, step: usize) -> Self {
+        self.aim = Some(Aim {
+            node,
+            step,
+            committed: [0.0; 3],
+        });
+        self
+    }
+
+    /// The pilot point where step `step` starts: the committed offset, moved across the
+    /// step's motion onto the aimed node when this is the aimed step.
+    fn start_of_step(&self, step: usize) -> [f64; 3] {
+        let mut start = self.committed.offset;
+        let (Some(aim), Some(m)) = (self.aim, self.motion_direction(step)) else {
+            return start;
+        };
+        if aim.step != step {
+            return start;
+        }
+        let d: [f64; 3] = std::array::from_fn(|i| aim.committed[i] - start[i]);
+        let along = dot(&d, &m);
+        for i in 0..3 {
+            start[i] += d[i] - along * m[i];
+        }
+        start
     }
 
     /// Current pilot-point displacement (µm).
@@ -697,7 +743,7 @@ impl ElementSet for RigidContact {
         let end = self.program_at(state.step_index);
         if self.started_step != Some(state.step_index) {
             self.started_step = Some(state.step_index);
-            self.step_start = self.committed.offset;
+            self.step_start = self.start_of_step(state.step_index);
         }
         let from = self.step_start;
         self.trial.offset =
@@ -752,6 +798,9 @@ impl ElementSet for RigidContact {
     fn on_commit(&mut self, u: &[f64], dof_map: &DofMap) {
         for e in 0..self.point_count() {
             self.committed_positions[e] = self.position(e, u, dof_map);
+        }
+        if let Some(aim) = &mut self.aim {
+            aim.committed = std::array::from_fn(|i| u[dof_map.dof(aim.node, i)]);
         }
         if self.kind == ContactKind::Bonded {
             for e in 0..self.point_count() {

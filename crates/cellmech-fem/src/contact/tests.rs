@@ -444,3 +444,83 @@ fn an_approach_known_before_solving_rejects_overshoots_without_newton() {
     }
     assert!(known < solved, "{known} factorisations against {solved}");
 }
+
+#[test]
+fn a_tool_aimed_at_a_node_comes_down_over_where_the_node_has_moved() {
+    // Node 1 hangs on the spring 1 um below node 0. A sphere of radius 0.5 um, centred at the
+    // origin, stays put while the node is carried 0.7 um along x and -0.2 um along y
+    // (step 0), then rises by 0.8 um (step 1): centred under the node it pushes it up by
+    // 0.3 um against the spring (0.6 nN, straight up); left where it was, 0.73 um off the
+    // node's line, it never touches it.
+    let run = |aimed: bool| {
+        let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
+        let springs = SpringSet {
+            name: "spring".into(),
+            nodes: vec![[0, 1]],
+            reference: vec![[nodes[0], nodes[1]]],
+            stiffness: vec![2.0],
+            rest_length: vec![1.0],
+        };
+        let sphere = ToolShape::Sphere {
+            center: [0.0, 0.0, 0.0],
+            radius: 0.5,
+        };
+        let mut contact = RigidContact::new(
+            "tip",
+            sphere,
+            ContactKind::Frictionless,
+            vec![1],
+            vec![nodes[1]],
+            50.0,
+            1e-9,
+            vec![[0.0; 3], [0.0, 0.0, 0.8]],
+        )
+        .unwrap();
+        if aimed {
+            contact = contact.aimed_at(1, 1);
+        }
+        let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
+        let mut p = Problem::new(
+            DofMap::translational(2),
+            terms,
+            Box::new(DenseSolver::default()),
+        )
+        .unwrap();
+        let mut carry = Step::new("carry");
+        carry.prescribed = vec![
+            (0, Motion::By(0.7)),
+            (1, Motion::By(-0.2)),
+            (2, Motion::Hold),
+            (3, Motion::By(0.7)),
+            (4, Motion::By(-0.2)),
+        ];
+        p.run_step(&carry, &mut crate::solve::NullObserver).unwrap();
+        let mut rise = Step::new("rise");
+        rise.prescribed = fixed_top_and_lateral();
+        p.run_step(&rise, &mut crate::solve::NullObserver).unwrap();
+        let out = contact_term(&p);
+        let v = |n: &str| value(&out, &format!("tip_{n}"));
+        (
+            [
+                v("displacement_x_um"),
+                v("displacement_y_um"),
+                v("displacement_z_um"),
+            ],
+            [v("force_x_nN"), v("force_y_nN"), v("force_z_nN")],
+            p.u()[5],
+        )
+    };
+    let (offset, force, lift) = run(true);
+    assert!(
+        (offset[0] - 0.7).abs() < 1e-12 && (offset[1] + 0.2).abs() < 1e-12,
+        "the aimed tip moved across by {offset:?}"
+    );
+    assert!((offset[2] - 0.8).abs() < 1e-12, "and up by {}", offset[2]);
+    assert!((lift - 0.3).abs() < 1e-6, "the node was lifted by {lift}");
+    // The force the tip exerts on the body: up.
+    assert!((force[2] - 0.6).abs() < 1e-5, "{force:?}");
+    assert!(force[0].abs() < 1e-6 && force[1].abs() < 1e-6, "{force:?}");
+    let (offset, force, lift) = run(false);
+    assert_eq!([offset[0], offset[1]], [0.0, 0.0]);
+    assert!(lift.abs() < 1e-12 && force[2] == 0.0, "{lift} {force:?}");
+}

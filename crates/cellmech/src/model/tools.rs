@@ -50,6 +50,19 @@ pub struct ToolSpec {
     pub tolerance: f64,
     /// Which pressure the tangent's curvature term of a frictionless contact uses.
     pub curvature_tangent: CurvatureTangent,
+    /// Aim the tool at a node from a step on (`RigidContact::aimed_at`): `None` keeps it
+    /// where its shape puts it.
+    pub aim: Option<ToolAim>,
+}
+
+/// A tool aimed at a body node: when step `step` starts, the tool is moved across that
+/// step's motion onto the node as it has moved so far.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolAim {
+    /// The body node (a mesh node).
+    pub node: usize,
+    /// The analysis step it applies to (0-based index into the model's steps).
+    pub step: usize,
 }
 
 /// A tool's motion over one step.
@@ -201,6 +214,10 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
                     program,
                 )?
                 .with_curvature_tangent(tool.curvature_tangent)
+            };
+            let term = match tool.aim {
+                Some(aim) => term.aimed_at(aim.node, aim.step),
+                None => term,
             };
             Ok(Box::new(term) as Box<dyn Term>)
         })

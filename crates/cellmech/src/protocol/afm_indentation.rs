@@ -12,7 +12,9 @@ use super::apparent_modulus::FitSettings;
 use super::{ProtocolError, ProtocolPlan, ToolHandle};
 use crate::cell::adherent::IndentationSite;
 use crate::cell::BuiltCell;
-use crate::model::tools::{default_penalty, default_tolerance, ForceTarget, ToolMotion, ToolSpec};
+use crate::model::tools::{
+    default_penalty, default_tolerance, ForceTarget, ToolAim, ToolMotion, ToolSpec,
+};
 use crate::model::StepSpec;
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Force, Length};
@@ -38,6 +40,14 @@ pub const AFM_INDENTATION: ParamTable = ParamTable {
             bounds: Bounds::ANY,
             doc: "with `site = \"point\"`: the (x, y) the tip comes down on",
             source: "choice",
+        },
+        ParamDef {
+            key: "aim",
+            kind: K::Choice(&["prestressed", "reference"]),
+            default: D::Word("prestressed"),
+            bounds: Bounds::ANY,
+            doc: "where the tip comes down: over the site's surface node where the prestress has moved it (as an AFM user aims at the cell they see), or over the site of the unstressed cell",
+            source: "choice (the receptor FA moves 2.1 µm inwards in the prestress: aimed at its reference position the tip missed its plaque by 1.2 µm; docs/adherent-cell.md)",
         },
         ParamDef {
             key: "tip",
@@ -169,6 +179,9 @@ pub enum TipShape {
 pub struct AfmIndentation {
     /// Where the tip indents.
     pub site: IndentationSite,
+    /// Aim the tip at the site's node as the prestress has moved it (else at the reference
+    /// site).
+    pub aim_prestressed: bool,
     /// Tip shape.
     pub tip: TipShape,
     /// Tip radius (µm).
@@ -234,6 +247,7 @@ impl AfmIndentation {
         };
         AfmIndentation {
             site,
+            aim_prestressed: v.word("aim") == "prestressed",
             tip: match v.word("tip") {
                 "sphere" => TipShape::Sphere,
                 _ => TipShape::Paraboloid,
@@ -369,6 +383,11 @@ impl AfmIndentation {
             .into_iter()
             .filter(|&n| crate::cell::vec3::distance(mesh.nodes[n], site) <= reach)
             .collect();
+        // The site's surface node (the site is a node of the refined mesh).
+        let aim_node = candidates.iter().copied().min_by(|&a, &b| {
+            let d = |n: usize| crate::cell::vec3::distance(mesh.nodes[n], site);
+            d(a).total_cmp(&d(b))
+        });
         mesh.insert_node_set("tip_contact", candidates.clone());
         // With `contact = "faces"` the tip acts on the surface faces among the candidates
         // (Gauss points between the nodes): with node contact the 0.2 µm tip slips between
@@ -412,6 +431,7 @@ impl AfmIndentation {
             penalty: default_penalty(&cell.model.materials, &cell.model.mesh, &candidates),
             tolerance: contact_tolerance,
             curvature_tangent: self.contact_tangent,
+            aim: None,
         });
         let loading = StepControl {
             initial_increment: self.max_increment.min(0.1),
@@ -447,6 +467,13 @@ impl AfmIndentation {
             None,
         );
         approach.tools[0].until_contact = Some(contact_tolerance);
+        // Aimed: the approach starts over the site's node where the prestress has put it.
+        if let Some(node) = aim_node.filter(|_| self.aim_prestressed) {
+            cell.model.tools[tip.index].aim = Some(ToolAim {
+                node,
+                step: steps.len(),
+            });
+        }
         steps.push(approach);
         // Then on until the tip feels `contact_force` (first contact, the zero of the
         // indentation), at most TOUCH_TRAVEL_RADII tip radii further.

@@ -410,6 +410,7 @@ impl PoleTest {
                 penalty: default_penalty(&cell.model.materials, &cell.model.mesh, nodes),
                 tolerance: default_tolerance(&cell.model.mesh),
                 curvature_tangent: Default::default(),
+                aim: None,
             });
             handle
         });

@@ -233,6 +233,7 @@ pub(super) fn resolve_tools(
             penalty,
             tolerance,
             curvature_tangent: Default::default(),
+            aim: None,
         });
     }
     Ok(tools)
