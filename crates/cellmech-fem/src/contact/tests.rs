@@ -12,6 +12,17 @@ fn spring_and_tool(kind: ContactKind, program: Vec<[f64; 3]>) -> Problem {
     spring_over_plate(kind, 1.0, (50.0, 1e-9), program)
 }
 
+/// The spring (k = 2 nN/um, rest length 1 um) between nodes 0 and 1 at `nodes`.
+fn spring(nodes: [[f64; 3]; 2]) -> SpringSet {
+    SpringSet {
+        name: "spring".into(),
+        nodes: vec![[0, 1]],
+        reference: vec![[nodes[0], nodes[1]]],
+        stiffness: vec![2.0],
+        rest_length: vec![1.0],
+    }
+}
+
 /// Node 1 hangs on a spring (k = 2 nN/um) from node 0 at (0, 0, 2), 1 um above it; a plate
 /// at height `plate_z`, normal +z (towards the body), with `(penalty, tolerance)`.
 fn spring_over_plate(
@@ -21,13 +32,7 @@ fn spring_over_plate(
     program: Vec<[f64; 3]>,
 ) -> Problem {
     let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
-    let springs = SpringSet {
-        name: "spring".into(),
-        nodes: vec![[0, 1]],
-        reference: vec![[nodes[0], nodes[1]]],
-        stiffness: vec![2.0],
-        rest_length: vec![1.0],
-    };
+    let springs = spring(nodes);
     let plate = ToolShape::Plate {
         point: [0.0, 0.0, plate_z],
         normal: [0.0, 0.0, 1.0],
@@ -454,13 +459,7 @@ fn a_tool_aimed_at_a_node_comes_down_over_where_the_node_has_moved() {
     // node's line, it never touches it.
     let run = |aimed: bool| {
         let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
-        let springs = SpringSet {
-            name: "spring".into(),
-            nodes: vec![[0, 1]],
-            reference: vec![[nodes[0], nodes[1]]],
-            stiffness: vec![2.0],
-            rest_length: vec![1.0],
-        };
+        let springs = spring(nodes);
         let sphere = ToolShape::Sphere {
             center: [0.0, 0.0, 0.0],
             radius: 0.5,
