@@ -1,18 +1,23 @@
 """Von Mises stress on a vertical section through the AFM site, with the filaments near it.
 
-Usage: python3 stress_under_tip.py OUT.png RUN_DIR:INDEX[:LABEL] [RUN_DIR:INDEX[:LABEL] ...]
+Usage: python3 stress_under_tip.py OUT.png RUN_DIR:WHICH[:LABEL] [RUN_DIR:WHICH[:LABEL] ...]
 
-Each panel cuts the deformed hexahedra of output INDEX (the INDEX-th file of
-RUN_DIR/fields.pvd; -1 for the last) with the plane y = y_site through the site recorded in
-RUN_DIR/summary.json (`cell.geometry.site`), colours the cut by the element's von Mises
-stress (kPa, one colour scale for every panel), draws the filament segments within
-0.75 um of the plane in black (width by their axial force), and the paraboloid tip where
-curve.csv puts it (tip radius from summary.json, approach gap 1 um, the protocol's default).
+WHICH is an output index (the INDEX-th file of RUN_DIR/fields.pvd; -1 for the last) or
+@DEPTH, the output nearest that indentation depth in um (tip travel past first contact).
+Each panel cuts the deformed hexahedra with the vertical plane through the tip's axis
+(the site recorded in RUN_DIR/summary.json, `cell.geometry.site`, moved across by the
+tip's x/y displacement when the tip was aimed at where the prestress took the site),
+colours the cut by the element's von Mises stress (kPa, one colour scale for every panel),
+draws the filament segments within 0.75 um of the plane in black (width by their axial
+force), and the paraboloid tip where curve.csv puts it (tip radius from summary.json,
+approach gap 1 um, the protocol's default).
 Needs pyvista and matplotlib (`pip install pyvista matplotlib`). Used for
 docs/adherent-cell.md ("Apex and receptor side by side").
 """
+import csv
 import json
 import os
+import re
 import sys
 
 import matplotlib
@@ -31,17 +36,33 @@ HALF_WIDTH = 3.0  # um either side of the site
 SLAB = 0.75  # um: filament segments this close to the plane are drawn
 
 
-def load(run, index):
+def nearest_depth(run, depth):
+    """Index in fields.pvd of the output nearest indentation DEPTH (um)."""
+    summary = json.load(open(os.path.join(run, "summary.json")))
+    contact_step = summary["cell"]["protocol"]["contact_step"]
+    curve = list(csv.DictReader(open(os.path.join(run, "curve.csv"))))
+    at_contact = [r for r in curve if int(float(r["step"])) == contact_step][-1]
+    z0 = float(at_contact["tip_displacement_z_um"])
+    times = [float(t) for t in re.findall(r'timestep="([^"]*)"', open(os.path.join(run, "fields.pvd")).read())]
+    def depth_at(time):
+        row = min(curve, key=lambda c: abs(float(c["time"]) - time))
+        return z0 - float(row["tip_displacement_z_um"])
+    return min(range(len(times)), key=lambda i: abs(depth_at(times[i]) - depth))
+
+
+def load(run, which):
+    index = nearest_depth(run, float(which[1:])) if which.startswith("@") else int(which)
     path, row = output(run, index)
     summary = json.load(open(os.path.join(run, "summary.json")))
     site, _normal = summary["cell"]["geometry"]["site"]
+    site = [site[0] + float(row["tip_displacement_x_um"]), site[1] + float(row["tip_displacement_y_um"]), site[2]]
     radius = summary.get("input", {}).get("protocol", {}).get("tip_radius_um", 0.2)
     mesh = pv.read(path).warp_by_vector("displacement_um")
     return mesh, site, radius, row
 
 
-def panel(ax, run, index, label, norm):
-    mesh, site, radius, row = load(run, index)
+def panel(ax, run, which, label, norm):
+    mesh, site, radius, row = load(run, which)
     hexes = [i for i in range(mesh.n_cells) if mesh.get_cell(i).type == pv.CellType.HEXAHEDRON]
     cut = mesh.extract_cells(hexes).slice(normal="y", origin=(site[0], site[1], site[2]))
     polys, values = [], []
@@ -71,22 +92,22 @@ def panel(ax, run, index, label, norm):
     ax.set_aspect("equal")
     ax.set_xlabel("x (µm)")
     ax.set_ylabel("z (µm)")
-    depth = float(row["tip_force_along_motion_nN"])
-    ax.set_title(f"{label}\ntip force {depth:.3f} nN", fontsize=9)
+    force = float(row["tip_force_along_motion_nN"])
+    ax.set_title(f"{label}\ntip force {force:.3f} nN", fontsize=9)
     return coll
 
 
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
-    specs = [s.split(":") for s in sys.argv[2:]]
+    specs = [s.split(":", 2) for s in sys.argv[2:]]
     norm = LogNorm(vmin=1e-3, vmax=1.0)
     fig, axes = plt.subplots(1, len(specs), figsize=(5.5 * len(specs), 5), squeeze=False)
     coll = None
     for ax, spec in zip(axes[0], specs):
-        run, index = spec[0], int(spec[1])
+        run, which = spec[0], spec[1]
         label = spec[2] if len(spec) > 2 else run
-        coll = panel(ax, run, index, label, norm)
+        coll = panel(ax, run, which, label, norm)
     fig.colorbar(coll, ax=axes[0].tolist(), label="von Mises stress (kPa)", shrink=0.8)
     fig.savefig(sys.argv[1], dpi=130, bbox_inches="tight")
 
