@@ -62,7 +62,8 @@ fn graded_block(fine: usize, coarse: usize) -> Mesh {
     mesh
 }
 
-struct ForceDepth(Vec<(f64, f64)>);
+/// Depth, force (whole body) and contact radius of each converged increment.
+struct ForceDepth(Vec<(f64, f64)>, Vec<f64>);
 
 impl Observer for ForceDepth {
     fn on_increment(&mut self, p: &Problem, _r: &IncrementReport<'_>) {
@@ -76,11 +77,13 @@ impl Observer for ForceDepth {
             -get("_displacement_z_um"),
             4.0 * get("_force_along_motion_nN"),
         ));
+        self.1.push(get("_contact_radius_um"));
     }
 }
 
-/// Force–depth curve of an indentation to depth `depth` with the given tool.
-fn indent(mesh: &Mesh, shape: ToolShape, depth: f64) -> Vec<(f64, f64)> {
+/// Force–depth curve of an indentation to depth `depth` with the given tool, and the
+/// contact radius at each point of it.
+fn indent(mesh: &Mesh, shape: ToolShape, depth: f64) -> (Vec<(f64, f64)>, Vec<f64>) {
     let law = NeoHookean::from_young_poisson(1.0, 0.3).unwrap();
     let top = mesh.node_sets["z_max"].clone();
     let reference = top.iter().map(|&n| mesh.nodes[n]).collect();
@@ -123,9 +126,9 @@ fn indent(mesh: &Mesh, shape: ToolShape, depth: f64) -> Vec<(f64, f64)> {
     }
     step.control.initial_increment = 0.25;
     step.control.max_increment = 0.25;
-    let mut curve = ForceDepth(Vec::new());
+    let mut curve = ForceDepth(Vec::new(), Vec::new());
     p.run_step(&step, &mut curve).unwrap();
-    curve.0
+    (curve.0, curve.1)
 }
 
 /// F/F_Hertz at depth `d`, interpolated linearly between converged increments.
@@ -158,10 +161,10 @@ fn hertz_sphere_and_paraboloid_on_neo_hookean_block_within_5_percent_and_converg
     let coarse = graded_block(6, 6);
     let fine = graded_block(10, 8);
     for (name, shape) in [("sphere", sphere), ("paraboloid", paraboloid)] {
-        let errors: Vec<f64> = [&coarse, &fine]
+        let errors: Vec<f64> = [(6, &coarse), (10, &fine)]
             .iter()
-            .map(|mesh| {
-                let curve = indent(mesh, shape, 0.1 * R);
+            .map(|&(fine_cells, mesh)| {
+                let (curve, radii) = indent(mesh, shape, 0.1 * R);
                 let half_err = ratio_at(&curve, 0.05 * R) - 1.0;
                 assert!(
                     half_err.abs() < 0.035,
@@ -170,6 +173,23 @@ fn hertz_sphere_and_paraboloid_on_neo_hookean_block_within_5_percent_and_converg
                 );
                 let (d, f) = *curve.last().unwrap();
                 let err = f / hertz(d) - 1.0;
+                // Hertz's contact radius √(R d) all along the curve: node contact finds the
+                // zone's edge to within the node spacing h there (the fine cells: 0.45 R over
+                // `fine_cells`), and finite strain widens the zone as it raises the force
+                // (a³ ∝ F: +2 % for the +6 % above).
+                let h = 0.45 * R / fine_cells as f64;
+                for (&(d, _), &a) in curve.iter().zip(&radii).filter(|(c, _)| c.0 >= 0.02 * R) {
+                    let a_hertz = (R * d).sqrt();
+                    assert!(
+                        (a - a_hertz).abs() < h + 0.02 * a_hertz,
+                        "{name}: contact radius {a} um at d = {d} against Hertz {a_hertz} (h = {h})"
+                    );
+                }
+                eprintln!(
+                    "{name}: contact radius {:.4} um at d = {d:.3}, Hertz {:.4}, h = {h:.4}",
+                    radii.last().unwrap(),
+                    (R * d).sqrt()
+                );
                 eprintln!(
                     "{name}, {} elements: F = {f:.5} nN at d = {d:.3}, Hertz {:.5} ({:+.2} %)",
                     mesh.num_elements(),

@@ -483,6 +483,42 @@ impl RigidContact {
             .reduce(f64::min)
     }
 
+    /// Radius (µm) of the contact zone of an indenter (paraboloid or sphere): the largest
+    /// distance from the tool's axis of a contact point that presses on the tool at `u`
+    /// (positive pressure λ − εφ of an active point, or a bond). The axis passes through
+    /// the displaced apex (centre) along the tool's axis, or for a sphere along its current
+    /// motion. 0 when nothing presses; `None` for plates and disks, and for a sphere that
+    /// has not moved. With node contact the zone's edge lies between the outermost loaded
+    /// node and the next one out, so this under-estimates by up to one node spacing there.
+    pub fn contact_radius(&self, u: &[f64], dof_map: &DofMap) -> Option<f64> {
+        let origin = self.shape.axis_point()?;
+        let axis = self
+            .shape
+            .axis()
+            .or_else(|| self.motion_direction(self.last_step))?;
+        let centre: [f64; 3] = std::array::from_fn(|i| origin[i] + self.trial.offset[i]);
+        let mut radius: f64 = 0.0;
+        for e in 0..self.point_count() {
+            let x = self.position(e, u, dof_map);
+            let presses = match self.trial.anchors[e] {
+                Some(_) => true,
+                None if self.trial.active[e] => {
+                    self.shape.gap(&x, &self.trial.offset).is_some_and(|g| {
+                        self.trial.lambda[e] - self.penalty * self.scale[e] * g.value > 0.0
+                    })
+                }
+                None => false,
+            };
+            if presses {
+                let d: [f64; 3] = std::array::from_fn(|i| x[i] - centre[i]);
+                let along = dot(&d, &axis);
+                let across = (dot(&d, &d) - along * along).max(0.0).sqrt();
+                radius = radius.max(across);
+            }
+        }
+        Some(radius)
+    }
+
     /// The violation the augmentations must bring below the tolerance: per element, the
     /// largest bond gap, or the penetration averaged over the element's points with their
     /// surface shares (for a node, its own penetration). A bilinear face cannot follow a
@@ -731,6 +767,10 @@ impl ElementSet for RigidContact {
         ));
         let gap = self.min_gap().unwrap_or(f64::NAN);
         out.push((scalar_name(&self.name, ToolScalar::MinGap), gap));
+        if self.shape.axis_point().is_some() {
+            let radius = self.contact_radius(u, dof_map).unwrap_or(0.0);
+            out.push((scalar_name(&self.name, ToolScalar::ContactRadius), radius));
+        }
         out
     }
 
@@ -859,6 +899,9 @@ pub enum ToolScalar {
     /// points were at the last committed increment ([`RigidContact::min_gap`]): linear in
     /// the tool's travel until first contact, so a step can stop exactly there.
     MinGap,
+    /// Radius of the contact zone of an indenter (paraboloid or sphere; µm, 0 without
+    /// contact): [`RigidContact::contact_radius`].
+    ContactRadius,
 }
 
 /// The name (with its unit) of a tool's scalar result: the one definition of the
@@ -871,6 +914,7 @@ pub fn scalar_name(tool: &str, scalar: ToolScalar) -> String {
         ToolScalar::ForceAlongMotion => format!("{tool}_force_along_motion_nN"),
         ToolScalar::MaxPenetration => format!("{tool}_max_penetration_um"),
         ToolScalar::MinGap => format!("{tool}_min_gap_um"),
+        ToolScalar::ContactRadius => format!("{tool}_contact_radius_um"),
     }
 }
 

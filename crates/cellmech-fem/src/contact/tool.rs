@@ -106,6 +106,17 @@ impl ToolShape {
         }
     }
 
+    /// The point on an indenter's axis from which a contact radius is measured (the
+    /// paraboloid's apex, the sphere's centre), undisplaced; `None` for plates and disks,
+    /// which have no contact radius.
+    pub fn axis_point(&self) -> Option<[f64; 3]> {
+        match self {
+            ToolShape::Plate { .. } | ToolShape::Disk { .. } => None,
+            ToolShape::Paraboloid { apex, .. } => Some(*apex),
+            ToolShape::Sphere { center, .. } => Some(*center),
+        }
+    }
+
     /// Gap of point `x` when the tool is displaced by `offset`. `None` where the tool cannot
     /// act (outside a disk's radius).
     pub fn gap(&self, x: &[f64; 3], offset: &[f64; 3]) -> Option<Gap> {

@@ -152,6 +152,14 @@ impl ToolHandle {
             cellmech_fem::contact::ToolScalar::Displacement(axis),
         )
     }
+
+    /// The `curve.csv` column of an indenter's contact radius (paraboloid or sphere).
+    pub fn contact_radius_column(&self) -> String {
+        cellmech_fem::contact::scalar_name(
+            &self.name,
+            cellmech_fem::contact::ToolScalar::ContactRadius,
+        )
+    }
 }
 
 /// A node set whose DOFs a protocol prescribes, with the reaction curve that reads its

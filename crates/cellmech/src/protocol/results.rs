@@ -37,6 +37,9 @@ pub struct TestPoint {
     pub nucleus_max_principal_log_strain_from_reference: f64,
     /// Nucleus length along the test axis over its mean transverse width.
     pub nucleus_aspect_ratio: f64,
+    /// AFM: radius of the contact zone around the tip's axis (µm; see
+    /// `RigidContact::contact_radius`); NaN for the other tests.
+    pub contact_radius_um: f64,
 }
 
 /// What a protocol run showed.
@@ -134,6 +137,11 @@ pub fn write_protocol_results(
     let strain = column("nucleus_max_principal_log_strain")?;
     let strain_from_reference = column("nucleus_max_principal_log_strain_from_reference")?;
     let aspect = column("nucleus_aspect_ratio")?;
+    // The tip's contact radius (AFM only).
+    let contact_radius = match plan {
+        ProtocolPlan::AfmIndentation { tip, .. } => Some(column(&tip.contact_radius_column())?),
+        _ => None,
+    };
     // Cells without minimal supports (the clamped adherent cell) have no such column.
     let support = writer.column("support_reaction_max_nN").unwrap_or_default();
     let d = cell.cell_diameter;
@@ -191,6 +199,7 @@ pub fn write_protocol_results(
                 strain_from_reference[r]
             },
             nucleus_aspect_ratio: aspect[r],
+            contact_radius_um: contact_radius.as_ref().map_or(f64::NAN, |c| c[r]),
         }
     };
     let mut curve_rows = vec![reference];
@@ -229,21 +238,21 @@ pub fn write_protocol_results(
         ),
     };
     let csv = format!("{stem}.csv");
-    let mut out = CurveWriter::create(
-        &dir.join(&csv),
-        &[
-            x_column,
-            "strain_of_diameter",
-            "force_nN",
-            "normalised_stiffness_kPa",
-            "nucleus_max_principal_log_strain",
-            "nucleus_max_principal_log_strain_from_reference",
-            "nucleus_aspect_ratio",
-        ],
-    )
-    .map_err(|e| e.to_string())?;
+    let mut columns = vec![
+        x_column,
+        "strain_of_diameter",
+        "force_nN",
+        "normalised_stiffness_kPa",
+        "nucleus_max_principal_log_strain",
+        "nucleus_max_principal_log_strain_from_reference",
+        "nucleus_aspect_ratio",
+    ];
+    if contact_radius.is_some() {
+        columns.push("contact_radius_um");
+    }
+    let mut out = CurveWriter::create(&dir.join(&csv), &columns).map_err(|e| e.to_string())?;
     for p in &results.curve {
-        out.push_row(&[
+        let row = [
             p.displacement_um,
             p.strain,
             p.force_nn,
@@ -251,8 +260,10 @@ pub fn write_protocol_results(
             p.nucleus_max_principal_log_strain,
             p.nucleus_max_principal_log_strain_from_reference,
             p.nucleus_aspect_ratio,
-        ])
-        .map_err(|e| e.to_string())?;
+            p.contact_radius_um,
+        ];
+        out.push_row(&row[..columns.len()])
+            .map_err(|e| e.to_string())?;
     }
     results.files.push(csv);
     let series = |label: &str, y: fn(&TestPoint) -> f64| Series {
@@ -295,6 +306,29 @@ pub fn write_protocol_results(
         ),
     ];
     let mut plots = plots.to_vec();
+    if let ProtocolPlan::AfmIndentation { tip_radius, .. } = plan {
+        // The contact radius against Hertz's √(R d) for a half-space (a guide: the cell is
+        // neither flat nor homogeneous).
+        let hertz = Series {
+            label: "Hertz sqrt(R d), half-space".into(),
+            points: results
+                .curve
+                .iter()
+                .map(|p| {
+                    (
+                        p.displacement_um,
+                        (tip_radius * p.displacement_um.max(0.0)).sqrt(),
+                    )
+                })
+                .collect(),
+            style: SeriesStyle::Line,
+        };
+        plots.push((
+            format!("{stem}-contact-radius.{plot_extension}"),
+            "contact radius (µm)",
+            vec![series("model", |p| p.contact_radius_um), hertz],
+        ));
+    }
     if sign > 0.0 {
         // The validation band: normalised stiffness 2.6 ± 0.5 kPa near 100 % elongation
         // (Nagayama et al. 2006, shared/spec/cell-models.md "Validation data").
