@@ -123,6 +123,19 @@ fn check_not_inverted(min_scaled_jacobian: f64) -> Result<(), AdherentLayoutErro
     ))
 }
 
+/// How an FA's plaque (the dome nodes within `fa_radius` of the FA node) carries the pull
+/// of the filaments anchored at the FA node: the two couplings of commercial codes
+/// (Abaqus `*COUPLING`, `KINEMATIC` or `DISTRIBUTING`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaCoupling {
+    /// Kinematic: every plaque node moves with the FA node, a rigid disc in translation.
+    Rigid,
+    /// Distributing: the FA node moves with the plaque nodes' mean (uniform weights) and
+    /// its load is shared among them equally; the plaque deforms with the cortex.
+    Distributing,
+}
+
 /// Parameters of the adherent-cell layout (µm).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct AdherentCellParams {
@@ -142,9 +155,11 @@ pub struct AdherentCellParams {
     pub bundle_spread: f64,
     /// The receptor FA (index into the FAs; `None`: the one farthest from the nucleus).
     pub receptor: Option<usize>,
-    /// Radius of an FA's plaque: the dome nodes within it move with the FA node (0: the FA
-    /// is one node).
+    /// Radius of an FA's plaque: the dome nodes within it carry the FA's filaments (0: the
+    /// FA is one node).
     pub fa_radius: f64,
+    /// How the plaque carries them ([`FaCoupling`]).
+    pub fa_coupling: FaCoupling,
     /// Beam elements per MT.
     pub mt_elements: usize,
     /// Smallest MT bow (fraction of the chord).
@@ -350,17 +365,22 @@ fn turn_radial_line(reference: &mut Mesh, from: V3, to: V3) {
     }
 }
 
-/// Ties every dome node within `radius` of an FA node (the nearest FA when several) to it,
-/// so that the FA is a rigid plaque rather than one node: a single node cannot carry an
-/// AB's pull where the mesh is refined (a point force on ever smaller elements; the
-/// receptor's prestress stalls at 1 % of the ramp). Hanging-node ties whose masters fall in
-/// a plaque are rewritten onto the FA node (no chains); hanging nodes keep their own ties.
-/// Returns the ties and the number of plaque nodes.
+/// Couples every dome node within `radius` of an FA node (the nearest FA when several) to
+/// it, so that the FA is a plaque rather than one node: a single node cannot carry an AB's
+/// pull where the mesh is refined (a point force on ever smaller elements; the receptor's
+/// prestress stalls at 1 % of the ramp). [`FaCoupling::Rigid`] ties each plaque node to
+/// the FA node, and hanging-node ties whose masters fall in a plaque are rewritten onto
+/// the FA node; [`FaCoupling::Distributing`] ties the FA node to its plaque nodes with
+/// equal weights, and hanging-node ties whose masters include an FA node are rewritten
+/// onto its plaque nodes (an FA whose plaque holds no free node stays a single node). No
+/// chains either way; hanging nodes keep their own ties. Returns the ties and the number of
+/// plaque nodes.
 fn tie_fa_plaques(
     mesh: &Mesh,
     hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
     fa_nodes: &[usize],
     radius: f64,
+    coupling: FaCoupling,
 ) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
     use cellmech_fem::mesh::refine::HangingNode;
     use std::collections::{BTreeMap, HashSet};
@@ -384,12 +404,37 @@ fn tie_fa_plaques(
             }
         }
     }
+    let count = plaque.len();
+    // What each node a tie may name stands for: (node, weight) pairs of free nodes.
+    let stands_for: BTreeMap<usize, Vec<(usize, f64)>> = match coupling {
+        FaCoupling::Rigid => plaque.iter().map(|(&n, &f)| (n, vec![(f, 1.0)])).collect(),
+        FaCoupling::Distributing => {
+            let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+            for (&n, &f) in &plaque {
+                members.entry(f).or_default().push(n);
+            }
+            members
+                .into_iter()
+                .map(|(f, nodes)| {
+                    let w = 1.0 / nodes.len() as f64;
+                    (f, nodes.into_iter().map(|n| (n, w)).collect())
+                })
+                .collect()
+        }
+    };
     let mut ties: Vec<HangingNode> = hanging
         .into_iter()
         .map(|h| {
             let mut masters: BTreeMap<usize, f64> = BTreeMap::new();
             for (m, w) in h.masters {
-                *masters.entry(*plaque.get(&m).unwrap_or(&m)).or_insert(0.0) += w;
+                match stands_for.get(&m) {
+                    Some(parts) => {
+                        for &(p, v) in parts {
+                            *masters.entry(p).or_insert(0.0) += w * v;
+                        }
+                    }
+                    None => *masters.entry(m).or_insert(0.0) += w,
+                }
             }
             HangingNode {
                 node: h.node,
@@ -397,11 +442,11 @@ fn tie_fa_plaques(
             }
         })
         .collect();
-    let count = plaque.len();
-    ties.extend(plaque.into_iter().map(|(node, f)| HangingNode {
-        node,
-        masters: vec![(f, 1.0)],
-    }));
+    ties.extend(
+        stands_for
+            .into_iter()
+            .map(|(node, masters)| HangingNode { node, masters }),
+    );
     (ties, count)
 }
 
@@ -678,8 +723,13 @@ impl AdherentCellGeometry {
             .chain(extra_bundles.iter().flatten())
             .copied()
             .collect();
-        let (hanging, plaque_nodes) =
-            tie_fa_plaques(&mesh, hanging, &plaque_owners, params.fa_radius);
+        let (hanging, plaque_nodes) = tie_fa_plaques(
+            &mesh,
+            hanging,
+            &plaque_owners,
+            params.fa_radius,
+            params.fa_coupling,
+        );
         // MTs: the chord from the centrosome to the FA bowed sideways (horizontally).
         let centrosome = params.centrosome();
         if shape.level(centrosome) >= 1.0 || centrosome[2] <= 0.0 {
@@ -841,6 +891,69 @@ mod tests {
             err.contains("refinement") && err.contains("element_size"),
             "{err}"
         );
+    }
+
+    /// The two FA couplings on a 4 × 4 × 1 box whose top face is the dome: an FA at the
+    /// top's centre node, a plaque of radius 0.6 (its four edge neighbours, 0.5 away), and a hanging
+    /// node tied half to the FA node and half to a plaque node. Rigid: each plaque node is
+    /// tied to the FA node, and the hanging tie names only free nodes. Distributing: the
+    /// FA node is tied to its four plaque nodes with weight 1/4 each, and the hanging tie
+    /// is rewritten onto them with its weights summing to 1; no master is tied itself.
+    #[test]
+    fn the_fa_plaque_is_rigid_or_distributing() {
+        use cellmech_fem::mesh::refine::HangingNode;
+        let mut mesh = cellmech_fem::mesh::generate::box_mesh(
+            [-1.0, -1.0, 0.0],
+            [2.0, 2.0, 1.0],
+            [4, 4, 1],
+            "b",
+        )
+        .unwrap();
+        mesh.node_sets
+            .insert("dome".into(), mesh.node_sets["z_max"].clone());
+        let fa = mesh.node_sets["dome"]
+            .iter()
+            .copied()
+            .find(|&n| distance(mesh.nodes[n], [0.0, 0.0, 1.0]) < 1e-12)
+            .unwrap();
+        let plaque: Vec<usize> = mesh.node_sets["dome"]
+            .iter()
+            .copied()
+            .filter(|&n| n != fa && distance(mesh.nodes[n], mesh.nodes[fa]) <= 0.6)
+            .collect();
+        assert_eq!(plaque.len(), 4);
+        let bottom = mesh.node_sets["z_min"][0];
+        let hanging = vec![HangingNode {
+            node: bottom,
+            masters: vec![(fa, 0.5), (plaque[0], 0.5)],
+        }];
+        let (rigid, count) = tie_fa_plaques(&mesh, hanging.clone(), &[fa], 0.6, FaCoupling::Rigid);
+        assert_eq!(count, 4);
+        for &n in &plaque {
+            let tie = rigid.iter().find(|h| h.node == n).unwrap();
+            assert_eq!(tie.masters, vec![(fa, 1.0)]);
+        }
+        let h = rigid.iter().find(|h| h.node == bottom).unwrap();
+        assert_eq!(h.masters, vec![(fa, 1.0)]);
+        let (distributing, count) =
+            tie_fa_plaques(&mesh, hanging, &[fa], 0.6, FaCoupling::Distributing);
+        assert_eq!(count, 4);
+        assert_eq!(distributing.len(), 2);
+        let tie = distributing.iter().find(|h| h.node == fa).unwrap();
+        assert_eq!(
+            tie.masters,
+            plaque.iter().map(|&n| (n, 0.25)).collect::<Vec<_>>()
+        );
+        let h = distributing.iter().find(|h| h.node == bottom).unwrap();
+        let sum: f64 = h.masters.iter().map(|m| m.1).sum();
+        assert!((sum - 1.0).abs() < 1e-15, "{:?}", h.masters);
+        let weight = |n: usize| h.masters.iter().find(|m| m.0 == n).map_or(0.0, |m| m.1);
+        assert!((weight(plaque[0]) - (0.5 + 0.125)).abs() < 1e-15);
+        assert!((weight(plaque[1]) - 0.125).abs() < 1e-15);
+        let slaves: Vec<usize> = distributing.iter().map(|h| h.node).collect();
+        assert!(distributing
+            .iter()
+            .all(|h| h.masters.iter().all(|m| !slaves.contains(&m.0))));
     }
 
     /// The wanted size: the plateau, the near slope over the graded band, the far slope
