@@ -48,6 +48,9 @@ pub struct Condensation {
     pred_full: Vec<f64>,
 }
 
+/// Targets of one matrix entry merged by a linear search; beyond, by a map.
+const LINEAR_MERGE: usize = 32;
+
 impl Condensation {
     /// Builds the reduced pattern and the scatter map for the element pattern `full` (from
     /// [`Assembler::pattern`]).
@@ -120,18 +123,37 @@ impl Condensation {
         let mut target_pos: Vec<u32> = Vec::with_capacity(full.nnz());
         let mut target_w = Vec::with_capacity(full.nnz());
         target_offsets.push(0);
+        // An entry of a slave with many masters (a distributing coupling over hundreds of
+        // nodes) has as many targets as pairs of masters: merging them by a linear search
+        // took minutes, so beyond a few targets they are looked up in a map.
+        let mut index: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
         for j in 0..n {
             for k in full.col_ptr[j]..full.col_ptr[j + 1] {
                 let i = full.row_idx[k];
                 let start = target_pos.len();
+                index.clear();
                 for_targets(i, j, &mut |row, col, w| {
                     let pos = reduced
                         .position(row, col)
                         .expect("the reduced pattern holds every target")
                         as u32;
-                    match target_pos[start..].iter().position(|&p| p == pos) {
-                        Some(x) => target_w[start + x] += w,
+                    let found = if target_pos.len() - start <= LINEAR_MERGE {
+                        target_pos[start..]
+                            .iter()
+                            .position(|&p| p == pos)
+                            .map(|x| start + x)
+                    } else {
+                        if index.is_empty() {
+                            index.extend((start..target_pos.len()).map(|x| (target_pos[x], x)));
+                        }
+                        index.get(&pos).copied()
+                    };
+                    match found {
+                        Some(x) => target_w[x] += w,
                         None => {
+                            if !index.is_empty() {
+                                index.insert(pos, target_pos.len());
+                            }
                             target_pos.push(pos);
                             target_w.push(w);
                         }
