@@ -131,7 +131,10 @@ impl Condensation {
             for k in full.col_ptr[j]..full.col_ptr[j + 1] {
                 let i = full.row_idx[k];
                 let start = target_pos.len();
-                index.clear();
+                // Clearing costs the map's capacity: only after an entry that used it.
+                if !index.is_empty() {
+                    index.clear();
+                }
                 for_targets(i, j, &mut |row, col, w| {
                     let pos = reduced
                         .position(row, col)
