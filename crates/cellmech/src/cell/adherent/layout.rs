@@ -76,6 +76,15 @@ impl LocalRefinement {
     /// Further levels of splitting wanted for an element with physical corners `x` (its
     /// longest edge over the wanted size, rounded up in powers of two), for a site.
     pub fn extra_levels(&self, x: &[V3; 8], site: V3) -> u8 {
+        let ratio = self.size_ratio(x, site);
+        if ratio <= 1.0 {
+            return 0;
+        }
+        ratio.log2().ceil().min(16.0) as u8
+    }
+
+    /// The element's longest edge over the size wanted where it lies (above 1: too coarse).
+    pub fn size_ratio(&self, x: &[V3; 8], site: V3) -> f64 {
         let longest = super::geometry::HEX_EDGES
             .iter()
             .map(|&(i, j)| distance(x[i], x[j]))
@@ -83,11 +92,7 @@ impl LocalRefinement {
         let centroid: V3 = std::array::from_fn(|k| x.iter().map(|p| p[k]).sum::<f64>() / 8.0);
         let radius = x.iter().map(|p| distance(*p, centroid)).fold(0.0, f64::max);
         let d = (distance(centroid, site) - radius).max(0.0);
-        let target = self.target_size(d);
-        if longest <= target {
-            return 0;
-        }
-        (longest / target).log2().ceil().min(16.0) as u8
+        longest / self.target_size(d)
     }
 
     /// The largest element edge wanted at distance `d` (µm) from the site: `element_size`
@@ -107,6 +112,12 @@ impl LocalRefinement {
 /// has about 11 000, the finest one in the docs about 28 000): the octree stops with an
 /// error as soon as it would pass it.
 pub const MAX_REFINED_CELL_ELEMENTS: usize = 2_000_000;
+
+/// Largest ratio of an element's edge to the size wanted where it lies that the octree's
+/// level cap (`refinement.max_levels`) may leave before the build stops with an error: up
+/// to one halving short is accepted (the defaults reach 0.053 µm at the apex for 0.05, and
+/// up to 1.55 times the size at the receptor), a whole level or more is not.
+pub const MAX_CAPPED_SIZE_RATIO: f64 = 2.0;
 
 /// The error for a mapped mesh with an inverted element (`min_scaled_jacobian ≤ 0`).
 fn check_not_inverted(min_scaled_jacobian: f64) -> Result<(), AdherentLayoutError> {
@@ -658,10 +669,17 @@ impl AdherentCellGeometry {
         let (mut mesh, hanging, boundary_faces) = match site_point {
             Some(s) => {
                 let refinement = params.refinement;
+                // How much coarser than wanted the level cap leaves the finest elements,
+                // to tell a user whose element_size the cap would silently coarsen.
+                let capped_ratio = std::cell::Cell::new(0.0f64);
                 let refined = cellmech_fem::mesh::refine::refine_hex8_within(
                     &reference,
                     |corners, level| {
                         let x = corners.map(|p| shape.map(p, false));
+                        if level >= refinement.max_levels {
+                            let ratio = refinement.size_ratio(&x, s);
+                            capped_ratio.set(capped_ratio.get().max(ratio));
+                        }
                         (level + refinement.extra_levels(&x, s)).min(refinement.max_levels)
                     },
                     MAX_REFINED_CELL_ELEMENTS,
@@ -679,6 +697,20 @@ impl AdherentCellGeometry {
                     ),
                     e => fail("refinement", e.to_string()),
                 })?;
+                if capped_ratio.get() > MAX_CAPPED_SIZE_RATIO {
+                    return Err(fail(
+                        "refinement.max_levels",
+                        format!(
+                            "expected enough octree levels for refinement.element_size = {} µm; \
+                             found max_levels = {}, which leaves elements near the site {:.1} \
+                             times larger than asked: raise refinement.max_levels (each level \
+                             halves the elements, at most 10) or raise refinement.element_size",
+                            refinement.element_size,
+                            refinement.max_levels,
+                            capped_ratio.get()
+                        ),
+                    ));
+                }
                 let mut mesh = map_reference_mesh(&refined.mesh, shape);
                 // The base mesh's nodes keep their indices and positions.
                 debug_assert!(fa_nodes.iter().all(|&n| mesh.nodes[n] == base.nodes[n]));
@@ -891,6 +923,40 @@ mod tests {
             err.contains("refinement") && err.contains("element_size"),
             "{err}"
         );
+    }
+
+    /// An element size the level cap cannot reach is an error naming `max_levels`, not a
+    /// silently coarser mesh: 0.025 µm at the apex needs 7 halvings of its 3.4 µm base
+    /// element, and 6 leave it 2.3 times too coarse. With 7 levels the same size builds.
+    #[test]
+    fn an_element_size_the_level_cap_cannot_reach_is_an_error() {
+        let (mut params, _) = super::super::params::defaults();
+        params.refinement.element_size = 0.025;
+        params.refinement.max_levels = 6;
+        let err = AdherentCellGeometry::build(&params, Some(IndentationSite::Apex))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("max_levels") && err.contains("0.025 µm") && err.contains("2.3 times"),
+            "{err}"
+        );
+        params.refinement.max_levels = 7;
+        let built = AdherentCellGeometry::build(&params, Some(IndentationSite::Apex)).unwrap();
+        let finest = built
+            .mesh
+            .blocks
+            .iter()
+            .flat_map(|b| b.connectivity.chunks(8))
+            .map(|e| {
+                let x: [V3; 8] = std::array::from_fn(|k| built.mesh.nodes[e[k]]);
+                super::super::geometry::HEX_EDGES
+                    .iter()
+                    .map(|&(i, j)| distance(x[i], x[j]))
+                    .fold(0.0, f64::max)
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(finest < 0.03, "finest element edge {finest} µm");
     }
 
     /// The two FA couplings on a 4 × 4 × 1 box whose top face is the dome: an FA at the

@@ -39,7 +39,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         p("refinement.grading", K::Number, D::Number(0.5), POS, "growth of the element size with distance beyond the fine radius (size ≤ grading × distance), over `graded_width`: the tip's circumferential curvature is 1/r at distance r from its axis, and a coarser grading lets the contact nodes there slide round the tip", "choice, measured ([adherent cell](adherent-cell.md#how-deep-the-tip-gets-2026-12-05-ninth-session))"),
         p("refinement.graded_width", K::Quantity(Length), D::Number(1000.0), NONNEG, "width of the band beyond the fine radius in which the element size grows with slope `grading`; beyond it the slope is `far_grading`", CHOICE),
         p("refinement.far_grading", K::Number, D::Number(1.0), POS, "growth of the element size with distance beyond fine_radius + graded_width", CHOICE),
-        p("refinement.max_levels", K::Count, D::Count(6), Bounds::new(0.0, true, 10.0, true), "most octree levels of splitting at the site (each halves the base element, whose edge under the apex is up to 3.4 µm)", CHOICE),
+        p("refinement.max_levels", K::Count, D::Count(6), Bounds::new(0.0, true, 10.0, true), "most octree levels of splitting at the site (each halves the base element, whose edge under the apex is up to 3.4 µm); an `element_size` it leaves more than twice too coarse is an error (0.025 µm needs 7, 0.0125 µm needs 8)", CHOICE),
         shared::CYTOPLASM_SHEAR_MODULUS,
         shared::CYTOPLASM_POISSON_RATIO,
         shared::NUCLEUS_SHEAR_MODULUS,
