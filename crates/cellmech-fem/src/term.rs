@@ -76,6 +76,12 @@ pub trait Term: Send + Sync {
     /// (e.g. a contact's active set) can predict it from where the body is heading.
     fn predict(&mut self, _u: &[f64], _dof_map: &DofMap) {}
 
+    /// Called by Newton before every evaluation with whether the last measured residual was
+    /// within [`crate::solve::NEAR_EQUILIBRIUM`] of the force scale: a term whose tangent
+    /// is deliberately inexact far from equilibrium (e.g. a contact's lagged curvature term)
+    /// may then use its exact derivative, so the last iterations converge quadratically.
+    fn set_near_equilibrium(&mut self, _near: bool) {}
+
     /// Called when Newton has converged. A term with an inner loop (augmented-Lagrangian
     /// multipliers, an active set) updates itself and says whether it is settled; if any term
     /// is not, Newton continues from the current state.

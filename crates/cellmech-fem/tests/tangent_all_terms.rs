@@ -448,6 +448,52 @@ fn contact_frictionless_active_and_bonded() {
     }
 }
 
+/// The default lagged curvature term caps the pressure at the last equilibrium's (0 for a
+/// node just predicted into contact), so far from equilibrium its tangent is not the
+/// derivative on a curved tool; once Newton says it is near equilibrium the term takes the
+/// trial pressure and the tangent is exact again (finite differences), which is what makes
+/// the last iterations quadratic.
+#[test]
+fn lagged_contact_is_exact_near_equilibrium() {
+    let shapes = contact_tools();
+    let x = [[0.2, 0.1, 1.1], [0.05, -0.1, 1.1], [-0.1, 0.15, 1.11]];
+    let u = [0.01, -0.02, 0.04, 0.0, 0.01, 0.03, 0.02, 0.0, 0.05];
+    let map = DofMap::translational(3);
+    for shape in &shapes[..2] {
+        let mut c = tool(*shape, ContactKind::Frictionless, &x);
+        c.commit(&u, &map);
+        c.set_load_state(&LoadState {
+            step_index: 0,
+            step_time: 0.5,
+        });
+        c.predict(&u, &map);
+        let tangent = |c: &RigidContact| {
+            let (mut r, mut k) = ([0.0; 3], [0.0; 9]);
+            c.evaluate(0, &u[..3], &mut r, Some(&mut k)).unwrap();
+            k
+        };
+        let far = tangent(&c);
+        c.set_near_equilibrium(true);
+        let near = tangent(&c);
+        let differ = far
+            .iter()
+            .zip(&near)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            differ > 1e-3,
+            "{shape:?}: the lag must matter here ({differ})"
+        );
+        assert_term(
+            &format!("lagged near equilibrium {shape:?}"),
+            &c,
+            &map,
+            &u,
+            CONTACT_FD,
+        );
+    }
+}
+
 #[test]
 fn contact_on_faces_frictionless() {
     let shapes = contact_tools();

@@ -107,6 +107,9 @@ pub trait ElementSet: Send + Sync {
     /// The state Newton starts the increment from ([`Term::predict`]).
     fn on_predict(&mut self, _u: &[f64], _dof_map: &DofMap) {}
 
+    /// Whether Newton is near equilibrium ([`Term::set_near_equilibrium`]).
+    fn on_near_equilibrium(&mut self, _near: bool) {}
+
     /// Newton converged: inner-loop update ([`Term::augment`]).
     fn on_converged(&mut self, _u: &[f64], _dof_map: &DofMap) -> Augmentation {
         Augmentation::Settled
@@ -173,6 +176,10 @@ impl<S: ElementSet> Term for S {
 
     fn predict(&mut self, u: &[f64], dof_map: &DofMap) {
         self.on_predict(u, dof_map)
+    }
+
+    fn set_near_equilibrium(&mut self, near: bool) {
+        self.on_near_equilibrium(near)
     }
 
     fn augment(&mut self, u: &[f64], dof_map: &DofMap) -> Augmentation {

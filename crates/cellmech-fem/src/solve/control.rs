@@ -43,6 +43,13 @@ pub struct Convergence {
     pub chord_near_convergence: bool,
 }
 
+/// Newton tells the terms they are near equilibrium ([`crate::term::Term::set_near_equilibrium`])
+/// once the residual is within this fraction of the force scale: a thousand times the
+/// default residual tolerance, where a contact's trial pressures are within about that
+/// fraction of their converged values, so the exact curvature term cannot push the
+/// elements under a tool the way it can at the start of an increment.
+pub const NEAR_EQUILIBRIUM: f64 = 1e-5;
+
 /// A chord step is tried when the residual ratio is at most this multiple of the
 /// residual tolerance ([`Convergence::chord_near_convergence`]).
 pub const CHORD_WINDOW: f64 = 1e3;

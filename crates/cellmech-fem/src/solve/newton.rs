@@ -9,6 +9,7 @@
 use super::constrained::solver_pattern;
 use super::control::{
     Convergence, IterationMethod, StepControl, CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW,
+    NEAR_EQUILIBRIUM,
 };
 use super::error::FailureReason;
 use super::observer::Observer;
@@ -74,6 +75,13 @@ fn dot_free(a: &[f64], b: &[f64], prescribed: &[bool]) -> f64 {
 }
 
 impl Problem {
+    /// Tells every term whether Newton is near equilibrium ([`crate::term::Term::set_near_equilibrium`]).
+    fn set_near_equilibrium(&mut self, near: bool) {
+        for term in &mut self.terms {
+            term.set_near_equilibrium(near);
+        }
+    }
+
     /// Solves the increment to the prescribed values `target_u` (prescribed DOFs) and loads
     /// `target_f`. On success `self.u`, `self.residual` and `self.energy` hold the converged
     /// state and the iteration count is returned; on failure the state is garbage and the
@@ -172,6 +180,7 @@ impl Problem {
                 for d in 0..n {
                     self.u[d] += self.work.delta[d];
                 }
+                self.set_near_equilibrium(false);
                 if relaxing {
                     self.relax_blocks(tolerance);
                 }
@@ -183,6 +192,9 @@ impl Problem {
             let (residual_ratio, energy_ratio, scale) =
                 self.measure(&mut scale_floor, step_length, energy_reference);
             self.work.scale = scale;
+            // The next evaluation's tangent: exact where the terms lag it far from
+            // equilibrium, once the residual says the state is close.
+            self.set_near_equilibrium(residual_ratio <= NEAR_EQUILIBRIUM);
             let report = IterationReport {
                 iteration,
                 residual_ratio,
@@ -219,6 +231,7 @@ impl Problem {
                             )));
                         }
                         // The terms changed: re-evaluate here and continue Newton.
+                        self.set_near_equilibrium(false);
                         if relaxing {
                             self.relax_blocks(conv.residual_tolerance * scale);
                         }
