@@ -78,15 +78,32 @@ fn report(args: &RunArgs, summary: &RunSummary) {
                 eprintln!("  force at the reference/contact state: {f:.4} nN");
             }
             for (target, point) in &p.at_deformations {
-                eprintln!(
-                    "  at {:.0} % deformation: force {:.2} nN, nucleus aspect ratio {:.3}, nucleus max log strain {:.3}",
-                    100.0 * target,
-                    point.force_nn,
-                    point.nucleus_aspect_ratio,
-                    point.nucleus_max_principal_log_strain
-                );
+                if p.kind == "afm-indentation" {
+                    // The targets are depths (µm) from first contact, not deformations.
+                    eprintln!(
+                        "  at {target} um indentation: force {:.4} nN, contact radius {:.3} um, nucleus max log strain from first contact {:.4}",
+                        point.force_nn,
+                        point.contact_radius_um,
+                        point.nucleus_max_principal_log_strain_from_reference
+                    );
+                } else {
+                    eprintln!(
+                        "  at {:.0} % deformation: force {:.2} nN, nucleus aspect ratio {:.3}, nucleus max log strain {:.3}",
+                        100.0 * target,
+                        point.force_nn,
+                        point.nucleus_aspect_ratio,
+                        point.nucleus_max_principal_log_strain
+                    );
+                }
             }
-            if let Some(last) = &p.last {
+            if let (Some(last), true) = (&p.last, p.kind == "afm-indentation") {
+                eprintln!(
+                    "  last point: indentation {:.3} um, force {:.4} nN, nucleus max log strain from first contact {:.4}",
+                    last.displacement_um,
+                    last.force_nn,
+                    last.nucleus_max_principal_log_strain_from_reference
+                );
+            } else if let Some(last) = &p.last {
                 eprintln!(
                     "  last point: travel {:.3} um, force {:.2} nN, normalised stiffness {:.3} kPa, nucleus aspect ratio {:.3}, nucleus max log strain {:.3}",
                     last.displacement_um,
