@@ -113,6 +113,11 @@ fn report(args: &RunArgs, summary: &RunSummary) {
                     last.nucleus_max_principal_log_strain
                 );
             }
+            if let Some(depth) = p.tip_passes_between_nodes_at_um {
+                eprintln!(
+                    "  warning: from {depth:.3} um of indentation the tip passes between the surface nodes into the cell (a mesh node lies more than five penetration tolerances inside it); the curve beyond is the mesh's, not the model's: refine the mesh at the site (cell.refinement.element_size with max_levels)"
+                );
+            }
             if let Some(r) = p.support_reaction_max_nn {
                 eprintln!("  largest support reaction: {r:.2e} nN");
             }

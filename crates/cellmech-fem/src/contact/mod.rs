@@ -122,6 +122,9 @@ pub struct RigidContact {
     /// Newton is near equilibrium ([`crate::term::Term::set_near_equilibrium`]): the lagged curvature
     /// term takes the trial pressure (exact) instead of its cap.
     near_equilibrium: bool,
+    /// Body nodes watched for lying inside the tool, without contact forces
+    /// ([`RigidContact::with_watched_nodes`]): node and reference position.
+    watched: Vec<(usize, [f64; 3])>,
     last_step: usize,
     /// The step whose start offset is recorded in `step_start`.
     started_step: Option<usize>,
@@ -334,6 +337,7 @@ impl RigidContact {
             committed_positions: Vec::new(),
             curvature_tangent: CurvatureTangent::default(),
             near_equilibrium: false,
+            watched: Vec::new(),
             penalty,
             tolerance,
             program,
@@ -349,6 +353,29 @@ impl RigidContact {
             .map(|q| contact.point_position(q, |_, _| 0.0))
             .collect();
         contact
+    }
+
+    /// The same contact, also watching `nodes` (node, reference position; typically the
+    /// interior nodes near where the tool presses) for lying inside the tool: they get no
+    /// contact force, but [`ToolScalar::DeepestWatchedNode`] reports how deep the deepest of
+    /// them is. A node inside a frictionless tool that only meets the surface means the
+    /// tool has passed between the surface's contact points into the body: the
+    /// discretisation's limit, not the physics.
+    pub fn with_watched_nodes(mut self, nodes: Vec<(usize, [f64; 3])>) -> Self {
+        self.watched = nodes;
+        self
+    }
+
+    /// How deep the deepest watched node lies inside the tool (µm; 0 when none is inside
+    /// or none is watched).
+    pub fn deepest_watched_node(&self, u: &[f64], dof_map: &DofMap) -> f64 {
+        self.watched
+            .iter()
+            .filter_map(|&(n, x0)| {
+                let x: [f64; 3] = std::array::from_fn(|i| x0[i] + u[dof_map.dof(n, i)]);
+                self.shape.gap(&x, &self.trial.offset)
+            })
+            .fold(0.0, |deepest, g| deepest.max(-g.value))
     }
 
     /// The same contact with the curvature term of its tangent taken as `curvature`.
@@ -782,6 +809,12 @@ impl ElementSet for RigidContact {
             let radius = self.contact_radius(u, dof_map).unwrap_or(0.0);
             out.push((scalar_name(&self.name, ToolScalar::ContactRadius), radius));
         }
+        if !self.watched.is_empty() {
+            out.push((
+                scalar_name(&self.name, ToolScalar::DeepestWatchedNode),
+                self.deepest_watched_node(u, dof_map),
+            ));
+        }
         out
     }
 
@@ -918,6 +951,9 @@ pub enum ToolScalar {
     /// Radius of the contact zone of an indenter (paraboloid or sphere; µm, 0 without
     /// contact): [`RigidContact::contact_radius`].
     ContactRadius,
+    /// How deep the deepest watched body node lies inside the tool (µm;
+    /// [`RigidContact::with_watched_nodes`]).
+    DeepestWatchedNode,
 }
 
 /// The name (with its unit) of a tool's scalar result: the one definition of the
@@ -931,6 +967,7 @@ pub fn scalar_name(tool: &str, scalar: ToolScalar) -> String {
         ToolScalar::MaxPenetration => format!("{tool}_max_penetration_um"),
         ToolScalar::MinGap => format!("{tool}_min_gap_um"),
         ToolScalar::ContactRadius => format!("{tool}_contact_radius_um"),
+        ToolScalar::DeepestWatchedNode => format!("{tool}_deepest_node_inside_um"),
     }
 }
 

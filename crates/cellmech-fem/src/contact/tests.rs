@@ -523,3 +523,53 @@ fn a_tool_aimed_at_a_node_comes_down_over_where_the_node_has_moved() {
     assert_eq!([offset[0], offset[1]], [0.0, 0.0]);
     assert!(lift.abs() < 1e-12 && force[2] == 0.0, "{lift} {force:?}");
 }
+
+/// A watched node gets no contact force but reports how deep it lies inside the tool: a
+/// sphere of radius 1 centred at (0, 0, 2) holds the watched node 1 at (0, 0, 1.1) 0.1 deep,
+/// and once the node has moved 0.2 down it is outside (0); the contact node 0 far away
+/// is untouched, so the tool exerts no force at all, and the curve column appears only with
+/// watched nodes.
+#[test]
+fn a_watched_node_inside_the_tool_is_measured_not_pushed() {
+    let sphere = ToolShape::Sphere {
+        center: [0.0, 0.0, 2.0],
+        radius: 1.0,
+    };
+    let make = || {
+        RigidContact::new(
+            "tip",
+            sphere,
+            ContactKind::Frictionless,
+            vec![0],
+            vec![[5.0, 5.0, 0.0]],
+            10.0,
+            1e-6,
+            vec![[0.0; 3]],
+        )
+        .unwrap()
+    };
+    let map = DofMap::translational(2);
+    let column = scalar_name("tip", ToolScalar::DeepestWatchedNode);
+    let plain = make();
+    let u = [0.0; 6];
+    assert!(plain
+        .curve_outputs(&u, &map)
+        .iter()
+        .all(|(n, _)| *n != column));
+    let watched = make().with_watched_nodes(vec![(1, [0.0, 0.0, 1.1])]);
+    let out = watched.curve_outputs(&u, &map);
+    let deepest = out.iter().find(|(n, _)| *n == column).unwrap().1;
+    assert!((deepest - 0.1).abs() < 1e-12, "{deepest}");
+    let force: f64 = (0..3)
+        .map(|a| {
+            out.iter()
+                .find(|(n, _)| *n == scalar_name("tip", ToolScalar::Force(a)))
+                .unwrap()
+                .1
+                .abs()
+        })
+        .sum();
+    assert_eq!(force, 0.0);
+    let moved = [0.0, 0.0, 0.0, 0.0, 0.0, -0.2];
+    assert_eq!(watched.deepest_watched_node(&moved, &map), 0.0);
+}

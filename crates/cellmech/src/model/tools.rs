@@ -53,6 +53,10 @@ pub struct ToolSpec {
     /// Aim the tool at a node from a step on (`RigidContact::aimed_at`): `None` keeps it
     /// where its shape puts it.
     pub aim: Option<ToolAim>,
+    /// Body nodes watched for lying inside the tool, without contact forces
+    /// (`RigidContact::with_watched_nodes`; the curve gets `<tool>_deepest_node_inside_um`);
+    /// empty: none.
+    pub watch: Vec<usize>,
 }
 
 /// A tool aimed at a body node: when step `step` starts, the tool is moved across that
@@ -184,6 +188,11 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
         })
         .map(|tool| {
             let program = tool_program(&tool.name, &motions);
+            let watched: Vec<(usize, [f64; 3])> = tool
+                .watch
+                .iter()
+                .filter_map(|&n| Some((n, *model.mesh.nodes.get(n)?)))
+                .collect();
             let term = if tool.faces.is_empty() {
                 let nodes: Vec<usize> = contact_nodes(&model.mesh, &tool.node_set)
                     .into_iter()
@@ -201,6 +210,7 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
                     program,
                 )?
                 .with_curvature_tangent(tool.curvature_tangent)
+                .with_watched_nodes(watched)
             } else {
                 RigidContact::on_faces(
                     tool.name.clone(),
@@ -214,6 +224,7 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
                     program,
                 )?
                 .with_curvature_tangent(tool.curvature_tangent)
+                .with_watched_nodes(watched)
             };
             let term = match tool.aim {
                 Some(aim) => term.aimed_at(aim.node, aim.step),

@@ -221,6 +221,13 @@ const TOUCH_TRAVEL_RADII: f64 = 1.0;
 const MIN_TOUCH_TRAVEL: f64 = 0.05;
 const MAX_TOUCH_TRAVEL: f64 = 0.5;
 
+/// A mesh node that is not a contact candidate and lies deeper inside the tip than this
+/// many penetration tolerances means the tip has passed between the surface's contact
+/// points (`ProtocolResults::tip_passes_between_nodes_at_um`): the contact nodes themselves
+/// stay within one tolerance, so five is clear of round-off and of the surface's own sag
+/// between its nodes on the finest meshes measured (at most 4.4 nm with the 2 nm tolerance).
+pub const PIERCE_TOLERANCES: f64 = 5.0;
+
 /// Contact candidates: dome nodes within this many tip-to-depth contact radii
 /// `√(2 R d_max)` of the site, and at least [`MIN_CONTACT_RADIUS`].
 const CONTACT_RADII: f64 = 3.0;
@@ -389,6 +396,15 @@ impl AfmIndentation {
             d(a).total_cmp(&d(b))
         });
         mesh.insert_node_set("tip_contact", candidates.clone());
+        // Every other mesh node in the same reach is watched for lying inside the tip: the
+        // sign that the tip has passed between the surface's contact points.
+        let watch: Vec<usize> = {
+            let contact: std::collections::HashSet<usize> = candidates.iter().copied().collect();
+            (0..mesh.nodes.len())
+                .filter(|n| !contact.contains(n))
+                .filter(|&n| crate::cell::vec3::distance(mesh.nodes[n], site) <= reach)
+                .collect()
+        };
         // With `contact = "faces"` the tip acts on the surface faces among the candidates
         // (Gauss points between the nodes): with node contact the 0.2 µm tip slips between
         // the nodes of the faces it has stretched and sinks into the cytoplasm beyond about
@@ -432,6 +448,7 @@ impl AfmIndentation {
             tolerance: contact_tolerance,
             curvature_tangent: self.contact_tangent,
             aim: None,
+            watch,
         });
         let loading = StepControl {
             initial_increment: self.max_increment.min(0.1),
@@ -508,6 +525,7 @@ impl AfmIndentation {
             tip_shape: self.tip,
             tip_radius: r,
             fit: self.fit,
+            pierce_tolerance: PIERCE_TOLERANCES * contact_tolerance,
         })
     }
 }

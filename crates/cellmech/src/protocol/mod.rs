@@ -153,6 +153,14 @@ impl ToolHandle {
         )
     }
 
+    /// The `curve.csv` column of how deep the deepest watched body node lies inside the tool.
+    pub fn deepest_node_inside_column(&self) -> String {
+        cellmech_fem::contact::scalar_name(
+            &self.name,
+            cellmech_fem::contact::ToolScalar::DeepestWatchedNode,
+        )
+    }
+
     /// The `curve.csv` column of an indenter's contact radius (paraboloid or sphere).
     pub fn contact_radius_column(&self) -> String {
         cellmech_fem::contact::scalar_name(
@@ -273,6 +281,10 @@ pub enum ProtocolPlan {
         tip_radius: f64,
         /// The apparent-modulus fit of the curve.
         fit: apparent_modulus::FitSettings,
+        /// A watched mesh node (not a contact candidate) deeper inside the tip than this
+        /// (µm) means the tip has passed between the surface nodes into the cell: the
+        /// results report the first depth where that happens.
+        pierce_tolerance: f64,
     },
 }
 
@@ -419,6 +431,7 @@ impl PoleTest {
                 tolerance: default_tolerance(&cell.model.mesh),
                 curvature_tangent: Default::default(),
                 aim: None,
+                watch: Vec::new(),
             });
             handle
         });

@@ -67,6 +67,13 @@ pub struct ProtocolResults {
     /// three points in the fit range), or why the fit failed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub apparent_modulus: Option<Result<super::apparent_modulus::ApparentModulusFit, String>>,
+    /// AFM: the first indentation (µm from first contact) at which a mesh node that is not
+    /// a contact candidate lay deeper inside the tip than the protocol's pierce tolerance
+    /// (five penetration tolerances): from there the tip has passed between the surface
+    /// nodes into the cell, and the curve is the discretisation's, not the model's (refine
+    /// the mesh at the site, `refinement.element_size`). `None`: it never did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tip_passes_between_nodes_at_um: Option<f64>,
     /// Files written.
     pub files: Vec<String>,
 }
@@ -166,6 +173,7 @@ pub fn write_protocol_results(
         at_deformations: Vec::new(),
         last: None,
         apparent_modulus: None,
+        tip_passes_between_nodes_at_um: None,
         files: Vec::new(),
     };
     // The reference state is the end of its step: none when that step did not finish. A
@@ -224,6 +232,19 @@ pub fn write_protocol_results(
         }
     }
     results.last = results.curve.last().copied();
+    if let ProtocolPlan::AfmIndentation {
+        tip,
+        pierce_tolerance,
+        ..
+    } = plan
+    {
+        if let Some(inside) = writer.column(&tip.deepest_node_inside_column()) {
+            results.tip_passes_between_nodes_at_um = curve_rows
+                .iter()
+                .find(|&&r| inside[r] > *pierce_tolerance)
+                .map(|&r| point(r).displacement_um);
+        }
+    }
     let (stem, x_label, x_column) = match kind {
         "micropipette-tension" => ("tension", "elongation (µm)", "elongation_um"),
         "afm-indentation" => (

@@ -234,6 +234,7 @@ pub(super) fn resolve_tools(
             tolerance,
             curvature_tangent: Default::default(),
             aim: None,
+            watch: Vec::new(),
         });
     }
     Ok(tools)
