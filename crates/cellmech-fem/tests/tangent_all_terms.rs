@@ -402,24 +402,36 @@ fn contact_tools() -> [ToolShape; 3] {
     ]
 }
 
+/// Three nodes (reference positions) that [`PUSHED_U`] pushes into every tool of
+/// [`contact_tools`].
+const PUSHED_X: [[f64; 3]; 3] = [[0.2, 0.1, 1.1], [0.05, -0.1, 1.1], [-0.1, 0.15, 1.11]];
+/// Their displacements.
+const PUSHED_U: [f64; 9] = [0.01, -0.02, 0.04, 0.0, 0.01, 0.03, 0.02, 0.0, 0.05];
+
+/// The frictionless contact of [`PUSHED_X`] with `curvature`, committed and moved to
+/// mid-step, the status predictor activating every node from [`PUSHED_U`].
+fn pushed_frictionless(shape: ToolShape, curvature: CurvatureTangent) -> RigidContact {
+    let map = DofMap::translational(3);
+    let mut c = tool(shape, ContactKind::Frictionless, &PUSHED_X).with_curvature_tangent(curvature);
+    c.commit(&PUSHED_U, &map);
+    c.set_load_state(&LoadState {
+        step_index: 0,
+        step_time: 0.5,
+    });
+    c.predict(&PUSHED_U, &map);
+    c
+}
+
 #[test]
 fn contact_frictionless_active_and_bonded() {
     let shapes = contact_tools();
     // Nodes pushed into the tool: every one is active.
-    let x = [[0.2, 0.1, 1.1], [0.05, -0.1, 1.1], [-0.1, 0.15, 1.11]];
-    let u = [0.01, -0.02, 0.04, 0.0, 0.01, 0.03, 0.02, 0.0, 0.05];
+    let (x, u) = (PUSHED_X, PUSHED_U);
     let map = DofMap::translational(3);
     for shape in shapes {
         // The consistent tangent (the default lags the curvature term's pressure to the last
         // equilibrium's). Predicted from u, the status predictor activates every node.
-        let mut c = tool(shape, ContactKind::Frictionless, &x)
-            .with_curvature_tangent(CurvatureTangent::Consistent);
-        c.commit(&u, &map);
-        c.set_load_state(&LoadState {
-            step_index: 0,
-            step_time: 0.5,
-        });
-        c.predict(&u, &map);
+        let c = pushed_frictionless(shape, CurvatureTangent::Consistent);
         let mut r = [0.0; 3];
         for e in 0..3 {
             c.evaluate(e, &u[3 * e..3 * e + 3], &mut r, None).unwrap();
@@ -456,17 +468,10 @@ fn contact_frictionless_active_and_bonded() {
 #[test]
 fn lagged_contact_is_exact_near_equilibrium() {
     let shapes = contact_tools();
-    let x = [[0.2, 0.1, 1.1], [0.05, -0.1, 1.1], [-0.1, 0.15, 1.11]];
-    let u = [0.01, -0.02, 0.04, 0.0, 0.01, 0.03, 0.02, 0.0, 0.05];
+    let u = PUSHED_U;
     let map = DofMap::translational(3);
     for shape in &shapes[..2] {
-        let mut c = tool(*shape, ContactKind::Frictionless, &x);
-        c.commit(&u, &map);
-        c.set_load_state(&LoadState {
-            step_index: 0,
-            step_time: 0.5,
-        });
-        c.predict(&u, &map);
+        let mut c = pushed_frictionless(*shape, CurvatureTangent::Lagged);
         let tangent = |c: &RigidContact| {
             let (mut r, mut k) = ([0.0; 3], [0.0; 9]);
             c.evaluate(0, &u[..3], &mut r, Some(&mut k)).unwrap();

@@ -371,11 +371,10 @@ impl RigidContact {
     pub fn deepest_watched_node(&self, u: &[f64], dof_map: &DofMap) -> f64 {
         self.watched
             .iter()
-            .filter_map(|&(n, x0)| {
-                let x: [f64; 3] = std::array::from_fn(|i| x0[i] + u[dof_map.dof(n, i)]);
-                self.shape.gap(&x, &self.trial.offset)
+            .map(|&(n, x0)| {
+                self.depth_inside(&std::array::from_fn(|i| x0[i] + u[dof_map.dof(n, i)]))
             })
-            .fold(0.0, |deepest, g| deepest.max(-g.value))
+            .fold(0.0, f64::max)
     }
 
     /// The same contact with the curvature term of its tangent taken as `curvature`.
@@ -496,13 +495,18 @@ impl RigidContact {
                 let x = self.position(e, u, dof_map);
                 match self.trial.anchors[e] {
                     Some(a) => norm(&std::array::from_fn(|i| x[i] - a[i] - self.trial.offset[i])),
-                    None => self
-                        .shape
-                        .gap(&x, &self.trial.offset)
-                        .map_or(0.0, |g| (-g.value).max(0.0)),
+                    None => self.depth_inside(&x),
                 }
             })
             .fold(0.0, f64::max)
+    }
+
+    /// How deep the point `x` lies inside the tool where it is now (µm; 0 outside or out of
+    /// its reach).
+    fn depth_inside(&self, x: &[f64; 3]) -> f64 {
+        self.shape
+            .gap(x, &self.trial.offset)
+            .map_or(0.0, |g| (-g.value).max(0.0))
     }
 
     /// Smallest signed gap between the tool where it is now and its contact points where
@@ -575,10 +579,7 @@ impl RigidContact {
                         })));
                     }
                     None => {
-                        let pen = self
-                            .shape
-                            .gap(&x, &self.trial.offset)
-                            .map_or(0.0, |g| (-g.value).max(0.0));
+                        let pen = self.depth_inside(&x);
                         sum += self.scale[q] * pen;
                         weight += self.scale[q];
                     }

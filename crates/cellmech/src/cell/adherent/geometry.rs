@@ -307,6 +307,14 @@ pub fn mesh_report(mesh: &Mesh, shape: &AdherentShape) -> AdherentMeshReport {
     }
 }
 
+/// The longest of a hex8's 12 edges (corners in `x`).
+pub fn longest_edge(x: &[[f64; 3]; 8]) -> f64 {
+    HEX_EDGES
+        .iter()
+        .map(|&(i, j)| crate::cell::vec3::distance(x[i], x[j]))
+        .fold(0.0, f64::max)
+}
+
 /// The 12 edges of a hex8 by corner index.
 pub const HEX_EDGES: [(usize, usize); 12] = [
     (0, 1),

@@ -85,10 +85,7 @@ impl LocalRefinement {
 
     /// The element's longest edge over the size wanted where it lies (above 1: too coarse).
     pub fn size_ratio(&self, x: &[V3; 8], site: V3) -> f64 {
-        let longest = super::geometry::HEX_EDGES
-            .iter()
-            .map(|&(i, j)| distance(x[i], x[j]))
-            .fold(0.0, f64::max);
+        let longest = super::geometry::longest_edge(x);
         let centroid: V3 = std::array::from_fn(|k| x.iter().map(|p| p[k]).sum::<f64>() / 8.0);
         let radius = x.iter().map(|p| distance(*p, centroid)).fold(0.0, f64::max);
         let d = (distance(centroid, site) - radius).max(0.0);
@@ -949,11 +946,9 @@ mod tests {
             .iter()
             .flat_map(|b| b.connectivity.chunks(8))
             .map(|e| {
-                let x: [V3; 8] = std::array::from_fn(|k| built.mesh.nodes[e[k]]);
-                super::super::geometry::HEX_EDGES
-                    .iter()
-                    .map(|&(i, j)| distance(x[i], x[j]))
-                    .fold(0.0, f64::max)
+                super::super::geometry::longest_edge(&std::array::from_fn(|k| {
+                    built.mesh.nodes[e[k]]
+                }))
             })
             .fold(f64::INFINITY, f64::min);
         assert!(finest < 0.03, "finest element edge {finest} µm");
