@@ -1,43 +1,10 @@
 //! The parts of [`Problem`] that deal with linear constraints (see [`crate::constraint`]).
 
 use super::problem::Problem;
+use super::reduced::solver_pattern;
 use super::step::Step;
-use crate::assembly::Assembler;
-use crate::constraint::condense::Condensation;
 use crate::constraint::LinearConstraints;
 use crate::linsolve::SparsityPattern;
-
-/// DOFs the solver must hold because nothing couples them, once constraints are eliminated:
-/// a slave is never held (its row is the identity and its value follows the masters); a
-/// master is coupled as soon as one of its slaves is.
-pub(super) fn reduce_untouched(constraints: &LinearConstraints, untouched: &mut [bool]) {
-    let mut coupled = vec![false; untouched.len()];
-    for (c, &s) in constraints.slaves().iter().enumerate() {
-        if !untouched[s] {
-            for &m in constraints.constraint(c).0 {
-                coupled[m] = true;
-            }
-        }
-    }
-    for (d, held) in untouched.iter_mut().enumerate() {
-        if constraints.is_slave(d) || coupled[d] {
-            *held = false;
-        }
-    }
-}
-
-/// The pattern the linear solver factorises: the reduced one when constraints are
-/// condensed, else the assembler's (a free function so that callers can borrow other
-/// fields of [`Problem`] mutably at the same time).
-pub(super) fn solver_pattern<'a>(
-    condensation: &'a Option<Condensation>,
-    assembler: &'a Assembler,
-) -> &'a SparsityPattern {
-    match condensation {
-        Some(c) => c.reduced_pattern(),
-        None => assembler.pattern(),
-    }
-}
 
 impl Problem {
     /// The linear constraints eliminated from the system, if any.

@@ -10,9 +10,10 @@ mod constrained;
 mod control;
 mod error;
 mod newton;
-mod observer;
 mod problem;
+mod reduced;
 mod relax;
+mod report;
 mod stabilize;
 mod step;
 
@@ -21,10 +22,9 @@ pub use control::{
     CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW, NEAR_EQUILIBRIUM, ON_DIFFICULTY_FAILURES,
 };
 pub use error::{FailureReason, SolveError};
-pub use newton::IterationReport;
-pub use observer::{IncrementReport, NullObserver, Observer};
-pub use problem::{Problem, Timings, JUMP_WIDTH};
+pub use problem::{NullObserver, Observer, Problem, Timings, JUMP_WIDTH};
 pub use relax::RelaxationStats;
+pub use report::{IncrementReport, IterationReport};
 pub use stabilize::StabilizationReport;
 pub use step::{GuessPath, Monitor, Motion, NodalLoad, Step, StopCondition};
 

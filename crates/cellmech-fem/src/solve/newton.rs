@@ -6,38 +6,18 @@
 //! the prescribed DOFs fixed, then search along δ when the residual's projection on δ has
 //! not dropped enough. Convergence needs both the residual and the energy criterion.
 
-use super::constrained::solver_pattern;
 use super::control::{
     Convergence, IterationMethod, StepControl, CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW,
     NEAR_EQUILIBRIUM,
 };
 use super::error::FailureReason;
-use super::observer::Observer;
-use super::problem::Problem;
+use super::problem::{Observer, Problem};
+use super::reduced::solver_pattern;
+use super::report::IterationReport;
 use std::time::Instant;
 
 use crate::assembly::AssemblyOutput;
 use crate::term::Augmentation;
-
-/// One Newton iteration, for convergence tables.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct IterationReport {
-    /// Iteration number within the increment (0 = predictor).
-    pub iteration: usize,
-    /// ‖R_free‖ / force scale after the update.
-    pub residual_ratio: f64,
-    /// |s δ·R| / |δ₀·R₀| after the update.
-    pub energy_ratio: f64,
-    /// The force scale (nN) the residual is measured against.
-    pub force_scale: f64,
-    /// Line-search step length used (1 = full Newton step).
-    pub line_search: f64,
-    /// ‖δ‖ (µm) of the iteration's correction.
-    pub correction_norm: f64,
-    /// The correction was a chord step: solved with an earlier factorisation
-    /// ([`Convergence::chord_near_convergence`]).
-    pub chord: bool,
-}
 
 /// Largest quasi-Newton correction as a multiple of the previous step before the tangent
 /// is reformed.

@@ -1,9 +1,10 @@
 //! The problem: terms, DOFs, assembler, linear solver and state, and the step driver.
 
 use super::control::{Convergence, Extrapolation, IterationMethod, StepControl};
+use super::error::FailureReason;
 use super::error::SolveError;
-use super::observer::{IncrementReport, Observer};
 use super::relax::{Relaxation, RelaxationStats};
+use super::report::{IncrementReport, IterationReport};
 use super::stabilize::{StabilizationReport, Stabilizer};
 use super::step::{Monitor, Motion, Step};
 use crate::assembly::Assembler;
@@ -112,6 +113,26 @@ pub struct Problem {
     pub(super) relaxation: Option<Relaxation>,
 }
 
+/// Receives the solver's events: CSV rows, VTU frames, progress bars and the convergence
+/// table are all observers. All methods have empty defaults. It lives with [`Problem`],
+/// whose converged state `on_increment` shows it.
+pub trait Observer {
+    /// A step starts.
+    fn on_step_start(&mut self, _step_index: usize, _step_name: &str) {}
+    /// A Newton iteration finished.
+    fn on_iteration(&mut self, _report: &IterationReport) {}
+    /// An increment converged; the problem holds the converged state.
+    fn on_increment(&mut self, _problem: &Problem, _report: &IncrementReport<'_>) {}
+    /// An increment failed and will be retried with a smaller increment.
+    fn on_cutback(&mut self, _step_time: f64, _increment: f64, _reason: &FailureReason) {}
+}
+
+/// An observer that ignores everything.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NullObserver;
+
+impl Observer for NullObserver {}
+
 /// Width (in step time) below which the bracket around a stop condition's crossing is taken
 /// to hold a jump of the monitored quantity rather than a root: the step then ends at the
 /// first converged state beyond it (1e-6 of the step: below any physical resolution of a
@@ -166,12 +187,12 @@ impl Problem {
         let condensation = match constraints {
             Some(c) if !c.is_empty() || c.num_dofs() != dof_map.num_dofs() => {
                 let condensation = Condensation::new(c, assembler.pattern())?;
-                super::constrained::reduce_untouched(condensation.constraints(), &mut untouched);
+                super::reduced::reduce_untouched(condensation.constraints(), &mut untouched);
                 Some(condensation)
             }
             _ => None,
         };
-        let pattern = super::constrained::solver_pattern(&condensation, &assembler);
+        let pattern = super::reduced::solver_pattern(&condensation, &assembler);
         pool.install(|| solver.analyze(pattern))?;
         let n = dof_map.num_dofs();
         let nnz = pattern.nnz();
