@@ -36,6 +36,10 @@ pub struct StudyRow {
     pub filaments: [Option<f64>; 4],
     /// Newton iterations.
     pub iterations: usize,
+    /// Increments solved with viscous stabilisation on.
+    pub stabilized_increments: usize,
+    /// Largest fraction of a step's strain energy the stabilisation dissipated.
+    pub dissipated_fraction: f64,
     /// Wall time (s).
     pub wall_time_s: f64,
     /// Why it failed.
@@ -73,6 +77,8 @@ pub fn rows(spec: &StudySpec, cases: &[Case], records: &[Option<CaseRecord>]) ->
                 filaments: FILAMENT_COLUMNS
                     .map(|key| record.and_then(|r| r.filaments.get(key).copied())),
                 iterations: record.map_or(0, |r| r.iterations),
+                stabilized_increments: record.map_or(0, |r| r.stabilized_increments),
+                dissipated_fraction: record.map_or(0.0, |r| r.dissipated_fraction),
                 wall_time_s: record.map_or(0.0, |r| r.wall_time_s),
                 error: record.and_then(|r| r.error.clone()),
             }
@@ -191,6 +197,19 @@ const FILAMENT_COLUMNS: [&str; 4] = [
     "intermediate_filaments_in_tension",
 ];
 
+/// A row's stabilisation, e.g. `25 (68 % of a step's strain energy)`, or `0`.
+fn stabilized(r: &StudyRow) -> String {
+    if r.stabilized_increments == 0 {
+        "0".into()
+    } else {
+        format!(
+            "{} ({:.1} % of a step's strain energy)",
+            r.stabilized_increments,
+            100.0 * r.dissipated_fraction
+        )
+    }
+}
+
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.map_or(String::new(), |v| format!("{v:.digits$}"))
 }
@@ -219,7 +238,7 @@ pub fn write_report(
     for (i, a) in spec.axes.iter().enumerate() {
         let _ = write!(csv, ",axis{i}_{}", a.kind);
     }
-    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,wall_time_s,error\n");
+    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,stabilized_increments,dissipated_fraction,wall_time_s,error\n");
     for r in &rows {
         csv.push_str(&csv_field(&r.case));
         for l in &r.labels {
@@ -228,7 +247,7 @@ pub fn write_report(
         }
         let _ = writeln!(
             csv,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{:.2},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.2},{}",
             r.status,
             opt(r.displacement_um, 4),
             opt(r.force_nn, 6),
@@ -241,6 +260,8 @@ pub fn write_report(
             opt(r.filaments[2], 0),
             opt(r.filaments[3], 0),
             r.iterations,
+            r.stabilized_increments,
+            r.dissipated_fraction,
             r.wall_time_s,
             r.error.as_deref().map(csv_field).unwrap_or_default()
         );
@@ -403,13 +424,13 @@ pub fn write_report(
     let _ = writeln!(md, "## Results\n");
     let _ = writeln!(
         md,
-        "| case | status | displacement (µm) | force (nN) | force / control | nucleus max log strain (from mesh / from reference) | MTs in tension / straight | AFs, IFs in tension | iterations | wall (s) |"
+        "| case | status | displacement (µm) | force (nN) | force / control | nucleus max log strain (from mesh / from reference) | MTs in tension / straight | AFs, IFs in tension | iterations | stabilised increments (energy dissipated) | wall (s) |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} / {} | {} / {} | {}, {} | {} | {:.1} |",
+            "| {} | {} | {} | {} | {} | {} / {} | {} / {} | {}, {} | {} | {} | {:.1} |",
             r.case,
             r.status,
             opt(r.displacement_um, 2),
@@ -422,6 +443,7 @@ pub fn write_report(
             opt(r.filaments[2], 0),
             opt(r.filaments[3], 0),
             r.iterations,
+            stabilized(r),
             r.wall_time_s
         );
     }
@@ -458,6 +480,19 @@ pub fn write_report(
                 r.case,
                 r.error.as_deref().unwrap_or("(no reason recorded)")
             );
+        }
+    }
+    let carried: Vec<&StudyRow> = rows
+        .iter()
+        .filter(|r| r.status == "completed" && r.stabilized_increments > 0)
+        .collect();
+    if !carried.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Cases whose path needed viscous stabilisation\n\nEach ended in equilibrium (re-solved without viscosity, or viscous forces below the accepted fraction), so its end point is a solution; its path was carried by the viscosity, and a large dissipated fraction means the curve between the converged points is not an equilibrium path.\n"
+        );
+        for r in carried {
+            let _ = writeln!(md, "- `{}`: {}", r.case, stabilized(r));
         }
     }
     let missing = rows.iter().filter(|r| r.status == "missing").count();
@@ -520,6 +555,8 @@ mod tests {
             at_deformations: Vec::new(),
             iterations: 3,
             factorizations: 1,
+            stabilized_increments: 0,
+            dissipated_fraction: 0.0,
             wall_time_s: 0.5,
             curve: Vec::new(),
         }
@@ -589,6 +626,60 @@ mod tests {
         assert!((s.bars[0].high_percent.unwrap() - 50.0).abs() < 1e-9);
         // The others did not change the force.
         assert_eq!(s.bars[1].span(), 0.0);
+    }
+
+    /// A completed case whose path needed the viscosity says so in the table, in its own
+    /// section of the report and in `study.csv`; a clean case does not.
+    #[test]
+    fn a_stabilised_path_is_reported_not_hidden() {
+        let dir = std::env::temp_dir().join(format!("cellmech-stab-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let spec = crate::study::spec::parse(
+            "base = \"suspended-tension\"\n[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\"]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let cases = spec.cases();
+        let records: Vec<Option<CaseRecord>> = cases
+            .iter()
+            .map(|c| {
+                let mut r = record(c, Some(2.0));
+                if c.name != "control" {
+                    r.stabilized_increments = 25;
+                    r.dissipated_fraction = 0.68;
+                }
+                Some(r)
+            })
+            .collect();
+        write_report(&spec, &cases, &records, &dir).unwrap();
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        assert!(
+            md.contains("## Cases whose path needed viscous stabilisation"),
+            "{md}"
+        );
+        assert!(
+            md.contains("- `no-actin`: 25 (68.0 % of a step's strain energy)"),
+            "{md}"
+        );
+        let section = &md[md.find("## Cases whose path").unwrap()..];
+        assert!(!section.contains("`control`"), "{md}");
+        let csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let (n, f) = (col("stabilized_increments"), col("dissipated_fraction"));
+        for line in lines {
+            let v: Vec<&str> = line.split(',').collect();
+            let want = if v[0] == "control" {
+                ("0", "0.0000")
+            } else {
+                ("25", "0.6800")
+            };
+            assert_eq!((v[n], v[f]), want, "{line}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -74,6 +74,14 @@ pub struct CaseRecord {
     pub iterations: usize,
     /// Numeric factorisations.
     pub factorizations: usize,
+    /// Increments solved with viscous stabilisation on, over all steps (0: none).
+    #[serde(default)]
+    pub stabilized_increments: usize,
+    /// The largest fraction of a step's strain energy that the stabilisation dissipated
+    /// (0: none). A completed case with a large value ended in equilibrium, but its path
+    /// was carried by the viscosity.
+    #[serde(default)]
+    pub dissipated_fraction: f64,
     /// Wall time of the case (s).
     pub wall_time_s: f64,
     /// The test curve.
@@ -270,6 +278,15 @@ pub fn run_case_in(
         factorizations: summary
             .as_ref()
             .map_or(0, |s| s.solver_timings.factorizations),
+        stabilized_increments: summary
+            .as_ref()
+            .map_or(0, |s| s.steps.iter().map(|s| s.stabilized_increments).sum()),
+        dissipated_fraction: summary.as_ref().map_or(0.0, |s| {
+            s.steps
+                .iter()
+                .filter_map(|s| s.stabilization.map(|st| st.dissipated_fraction))
+                .fold(0.0, f64::max)
+        }),
         wall_time_s: start.elapsed().as_secs_f64(),
         curve: protocol
             .map(|p| {
