@@ -3,7 +3,8 @@
 //! (`cellmech_fem::element::host_tie`, verified against the beam-on-elastic-foundation
 //! buckling load in `cellmech-fem/tests/host_tie_verification.rs`). Here: the ties are
 //! built for exactly the enabled MT interior nodes, add no constraints, and are unloaded in
-//! the reference state; the default modulus is the cytoplasm's Young's modulus.
+//! the reference state; the default modulus is the cytoplasm's Young's modulus, and the
+//! default MT discretisation 48 beams instead of 8.
 
 use cellmech::model::build;
 use cellmech::scenario::parse;
@@ -23,8 +24,11 @@ fn foundation_ties_hold_every_enabled_interior_mt_node_and_start_unloaded() {
     let tied = coarse("coupling = \"foundation\"", "");
     assert_eq!(tied.embedding.len(), 1);
     let e = &tied.embedding[0];
-    // 30 MTs of 8 elements: 7 interior nodes each.
-    assert_eq!((e.embedded_nodes, e.shared_nodes), (210, 0), "{e:?}");
+    // 30 MTs of 48 elements (the foundation's default): 47 interior nodes each.
+    assert_eq!((e.embedded_nodes, e.shared_nodes), (1410, 0), "{e:?}");
+    // A count given in the file wins: 8 elements, 7 interior nodes each.
+    let eight = coarse("coupling = \"foundation\"\nelements = 8", "");
+    assert_eq!(eight.embedding[0].embedded_nodes, 210);
     assert_eq!(
         tied.problem.num_constrained_dofs(),
         0,

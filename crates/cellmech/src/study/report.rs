@@ -562,6 +562,18 @@ mod tests {
         }
     }
 
+    /// A disruption study of the AFs alone: its control and `no-actin`.
+    fn actin_disruption() -> (StudySpec, Vec<Case>) {
+        let spec = crate::study::spec::parse(
+            "base = \"suspended-tension\"\n[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\"]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let cases = spec.cases();
+        (spec, cases)
+    }
+
     /// A modulus study with made-up forces (control 2 nN).
     fn study(forces: &[(&str, Option<f64>)]) -> (StudySpec, Vec<Case>, Vec<StudyRow>) {
         let spec = crate::study::spec::parse(
@@ -635,13 +647,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("cellmech-stab-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
-        let spec = crate::study::spec::parse(
-            "base = \"suspended-tension\"\n[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\"]\n",
-            "test",
-            Path::new("."),
-        )
-        .unwrap();
-        let cases = spec.cases();
+        let (spec, cases) = actin_disruption();
         let records: Vec<Option<CaseRecord>> = cases
             .iter()
             .map(|c| {
@@ -698,13 +704,7 @@ mod tests {
         let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
         assert!(html.contains("sensitivity"));
         // A disruption study has none.
-        let spec = crate::study::spec::parse(
-            "base = \"suspended-tension\"\n[[axis]]\nkind = \"disruption\"\nfamilies = [\"actin\"]\n",
-            "test",
-            Path::new("."),
-        )
-        .unwrap();
-        let cases = spec.cases();
+        let (spec, cases) = actin_disruption();
         let records: Vec<Option<CaseRecord>> =
             cases.iter().map(|c| Some(record(c, Some(2.0)))).collect();
         let out = dir.join("disruption");

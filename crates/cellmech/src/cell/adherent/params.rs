@@ -123,7 +123,7 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
             "distributing" => super::layout::FaCoupling::Distributing,
             _ => super::layout::FaCoupling::Rigid,
         },
-        mt_elements: v.count("microtubules.elements"),
+        mt_elements: shared::mt_elements_from_values(v),
         mt_bow_min: v.number("microtubules.bow_min"),
         mt_bow_max: v.number("microtubules.bow_max"),
         mt_clearance_margin: v.number("microtubules.clearance_margin"),

@@ -128,11 +128,29 @@ pub(crate) const MICROTUBULES_POISSON_RATIO: ParamDef = p(
 pub(crate) const MICROTUBULES_ELEMENTS: ParamDef = p(
     "microtubules.elements",
     K::Count,
-    D::Count(8),
+    D::Absent("8; 48 with `coupling = \"foundation\"`"),
     Bounds::new(2.0, true, MAX_MT_ELEMENTS as f64, true),
-    "beam elements per MT",
-    "choice (\"several\")",
+    "beam elements per MT; on an elastic foundation each beam must be shorter than the foundation's buckling waves (2.7 µm at the default modulus), or the beam between two ties buckles as a column first (8 beams of 1–3 µm: the tension test fails)",
+    "choice (\"several\"; foundation: [validation](suspended-cell-validation.md#mts-on-an-elastic-foundation-2026-12-05), 24 and 48 beams within 0.1 %)",
 );
+
+/// Beams per MT when `microtubules.elements` is not given: 8, or 48 on an elastic
+/// foundation (beams of 0.2–0.5 µm, a fraction of the foundation's 2.7 µm buckling wave;
+/// measured: docs/suspended-cell-validation.md, "MTs on an elastic foundation").
+pub(crate) fn mt_elements_from_values(v: &ParamValues) -> usize {
+    v.optional_count("microtubules.elements").unwrap_or(
+        if v.word("microtubules.coupling") == "foundation" {
+            FOUNDATION_MT_ELEMENTS
+        } else {
+            DEFAULT_MT_ELEMENTS
+        },
+    )
+}
+
+/// Beams per MT by default.
+pub(crate) const DEFAULT_MT_ELEMENTS: usize = 8;
+/// Beams per MT by default on an elastic foundation.
+pub(crate) const FOUNDATION_MT_ELEMENTS: usize = 48;
 /// `microtubules.bow_min` (shared by the cell models).
 pub(crate) const MICROTUBULES_BOW_MIN: ParamDef = p(
     "microtubules.bow_min",
@@ -524,7 +542,7 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             "pentagon-on-axis" => FaOrientation::PentagonOnAxis,
             _ => FaOrientation::Symmetric,
         },
-        mt_elements: v.count("microtubules.elements"),
+        mt_elements: mt_elements_from_values(v),
         mt_bow_min: v.number("microtubules.bow_min"),
         mt_bow_max: v.number("microtubules.bow_max"),
         mt_clearance_margin: v.number("microtubules.clearance_margin"),
