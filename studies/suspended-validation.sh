@@ -1,7 +1,8 @@
 #!/bin/sh
 # Reproduces docs/suspended-cell-validation.md: the suspended cell's tension test in every
-# coupling mode with the eight disruption models, the compression test in the coupling
-# modes that complete it with the same eight, and the mesh convergence of both tests.
+# coupling mode with the eight disruption models (MTs on an elastic foundation in a study
+# of their own), the compression test in the coupling modes that complete it with the same
+# eight, and the mesh convergence of both tests.
 # Each study is resumable (rerun to finish an interrupted one) and writes its own report.
 #
 #   sh studies/suspended-validation.sh [OUT] [JOBS]     # about 3 h on 2 cores (estimated from the single runs on the 6912-hex8 default mesh)
@@ -15,6 +16,8 @@ HERE=$(dirname "$0")
     echo "tension-coupling: some cases failed (listed in its report)"
 "$CELLMECH" study suspended-compression-coupling --out "$OUT/compression-coupling" --jobs "$JOBS" ||
     echo "compression-coupling: some cases failed (listed in its report)"
+"$CELLMECH" study "$HERE/suspended-tension-foundation.toml" --out "$OUT/tension-foundation" --jobs "$JOBS" ||
+    echo "tension-foundation: some cases failed (listed in its report)"
 "$CELLMECH" study "$HERE/suspended-tension-mesh.toml" --out "$OUT/tension-mesh" --jobs "$JOBS" ||
     echo "tension-mesh: some cases failed (listed in its report)"
 "$CELLMECH" study "$HERE/suspended-compression-mesh.toml" --out "$OUT/compression-mesh" --jobs "$JOBS" ||
