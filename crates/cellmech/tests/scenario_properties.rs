@@ -273,8 +273,9 @@ fn huge_counts_are_rejected_before_allocating() {
         ),
         (
             "suspended-tension",
-            "elements = 8",
-            format!("elements = {HUGE}"),
+            // The example shows the key commented (its default depends on the coupling).
+            "# elements = 8",
+            format!("elements = {HUGE} #"),
         ),
         (
             "suspended-tension",
