@@ -225,10 +225,10 @@ fn all_filaments_embedded_complete_the_tension_test_and_the_afs_follow_the_gel()
 
 /// The fifth coupling mode in CI: MTs on an elastic foundation (`coupling = "foundation"`,
 /// every interior MT node tied to the gel by a spring of the cytoplasm's E per µm of MT),
-/// stress-free in the prestressed cell, centrosome free, 24 beams per MT (with the default
-/// 8 a beam between two ties is a column that buckles at about 12 EI/L² and the stretch
-/// fails on the default mesh: docs/suspended-cell-validation.md, "MTs on an elastic
-/// foundation"). It completes the tension test without viscous stabilisation, and the
+/// stress-free in the prestressed cell, centrosome free, 24 beams per MT (the foundation's
+/// default is 48; with 8 a beam between two ties is a column that buckles at about
+/// 12 EI/L² and the stretch fails on the default mesh: docs/suspended-cell-validation.md,
+/// "MTs on an elastic foundation"; 24 keeps this test at 7 s). It completes the tension test without viscous stabilisation, and the
 /// MTs carry tension and add to the force. Measured on the coarse cell (2026-12-05):
 /// free 91.32 nN, foundation 99.85 nN (+9.3 %); MT axial force max 10.58 nN, min
 /// −0.303 nN; 18 of 30 MTs in tension; largest tie slip 0.83 µm; 7 s.

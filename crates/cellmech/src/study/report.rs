@@ -197,7 +197,7 @@ const FILAMENT_COLUMNS: [&str; 4] = [
     "intermediate_filaments_in_tension",
 ];
 
-/// A row's stabilisation, e.g. `25 (68 % of a step's strain energy)`, or `0`.
+/// A row's stabilisation, e.g. `25 (68.0 % of a step's strain energy)`, or `0`.
 fn stabilized(r: &StudyRow) -> String {
     if r.stabilized_increments == 0 {
         "0".into()
