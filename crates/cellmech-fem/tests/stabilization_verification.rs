@@ -310,3 +310,49 @@ impl Observer for Times {
         self.0.push(report.step_time);
     }
 }
+
+#[test]
+fn a_step_whose_re_solve_fails_relaxes_at_its_final_load_into_the_equilibrium() {
+    // The whole load, twice the limit load, in one heavily damped increment (c = 10, so
+    // the viscosity is ten times the tangent's diagonal): the damped state stays near the
+    // start, far from the only equilibrium (the inverted branch), and Newton without
+    // viscosity cannot get there within 5 iterations. Relaxation increments at the final
+    // load must carry it there; without them the step fails.
+    let target = 2.0 * limit_point().1;
+    let step = |relaxations: usize| {
+        let settings = Stabilization {
+            factor: Some(10.0),
+            end_relaxation_increments: relaxations,
+            ..Stabilization::default()
+        };
+        let mut step = load_step(target, Some(settings));
+        step.control.initial_increment = 1.0;
+        step.control.max_increment = 1.0;
+        step.control.convergence.max_iterations = 5;
+        step
+    };
+    let error = truss()
+        .run_step(&step(0), &mut Path::default())
+        .unwrap_err();
+    assert!(
+        matches!(
+            error,
+            cellmech_fem::solve::SolveError::NotEquilibrated { viscous_force_ratio, .. }
+                if viscous_force_ratio > 0.1
+        ),
+        "{error}"
+    );
+    let mut path = Path::default();
+    truss()
+        .run_step(&step(20), &mut path)
+        .expect("relaxes into the equilibrium");
+    let &(t, y, report) = path.points.last().unwrap();
+    let report = report.unwrap();
+    assert_eq!(t, 1.0);
+    assert!((y - inverted_branch(target)).abs() <= 1e-9 * A, "{y}");
+    assert!(report.equilibrated);
+    assert_eq!(report.viscous_force_ratio, 0.0);
+    // The relaxation's dissipation is booked: the snap releases energy a static model can
+    // only dissipate, of the order of the strain energy at the end.
+    assert!(report.increment_dissipated > 0.0);
+}

@@ -168,6 +168,11 @@ pub struct Stabilization {
     /// re-solve without viscosity fails; above it the step fails (its results would not be
     /// an equilibrium).
     pub max_end_viscous_force: f64,
+    /// Most relaxation increments at the step's final load when the re-solve without
+    /// viscosity fails: the damped state flows on at fixed load with a viscosity that
+    /// shrinks as its out-of-balance force does (pseudo-transient continuation), and the
+    /// re-solve is tried again once that force is near the tolerance. 0: none.
+    pub end_relaxation_increments: usize,
 }
 
 /// Failed attempts in a row (the same increment cut again and again) after which
@@ -195,6 +200,7 @@ impl Default for Stabilization {
             equilibrate_at_end: true,
             activation: Activation::Always,
             max_end_viscous_force: 1e-3,
+            end_relaxation_increments: 20,
         }
     }
 }

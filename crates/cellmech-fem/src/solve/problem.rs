@@ -127,6 +127,25 @@ pub trait Observer {
     fn on_cutback(&mut self, _step_time: f64, _increment: f64, _reason: &FailureReason) {}
 }
 
+/// Least and most shrink of the viscosity per relaxation increment at the final load.
+const RELAX_SHRINK_MOST: f64 = 0.1;
+const RELAX_SHRINK_LEAST: f64 = 0.5;
+/// Growth of the viscosity after a failed relaxation increment.
+const RELAX_BACK_OFF: f64 = 10.0;
+/// The re-solve without viscosity is tried again once the viscous force is within this
+/// many residual tolerances.
+const RELAX_RESOLVE_FACTOR: f64 = 10.0;
+
+/// Outcome of the relaxation at a stabilised step's final load.
+struct FinalRelaxation {
+    /// Energy the relaxation increments dissipated (nN·µm).
+    dissipated: f64,
+    /// ‖viscous forces‖ / force scale in the state reached (0 when re-solved).
+    viscous_force_ratio: f64,
+    /// Whether the state reached is an equilibrium without viscosity.
+    equilibrated: bool,
+}
+
 /// An observer that ignores everything.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct NullObserver;
@@ -651,42 +670,30 @@ impl Problem {
         iterations: &mut usize,
     ) -> Option<StabilizationReport> {
         let st = self.stabilizer.as_ref()?;
-        let increment = st.dissipation(&self.u);
+        let mut increment = st.dissipation(&self.u);
         let scale = self.work.scale;
         let ratio = |force: f64| if scale > 0.0 { force / scale } else { 0.0 };
         let mut viscous_force_ratio = ratio(st.force_norm(&self.u));
         let rate = st.rate;
+        let relaxations = st.settings.end_relaxation_increments;
         let mut equilibrated = rate == 0.0;
-        if final_increment
-            && st.settings.equilibrate_at_end
-            && viscous_force_ratio > control.convergence.residual_tolerance
-        {
-            let damped_u = self.u.clone();
-            // The re-solve may augment (contact multipliers, active sets): keep the damped
-            // state's terms so that a failed re-solve returns to exactly that state.
-            for term in &mut self.terms {
-                term.save_trial();
-            }
-            if let Some(st) = &mut self.stabilizer {
-                st.rate = 0.0;
-            }
-            match self.newton_increment(target_u, target_f, true, control, observer) {
-                Ok(more) => {
-                    *iterations += more;
-                    equilibrated = true;
-                    viscous_force_ratio = 0.0;
-                }
-                Err(_) => {
-                    self.u = damped_u;
-                    for term in &mut self.terms {
-                        term.restore_trial();
-                    }
-                    if let Some(st) = &mut self.stabilizer {
-                        st.rate = rate;
-                    }
-                    // The state was assembled there before: this cannot fail.
-                    let _ = self.assemble_full(false);
-                }
+        let tolerance = control.convergence.residual_tolerance;
+        if final_increment && st.settings.equilibrate_at_end && viscous_force_ratio > tolerance {
+            if self.resolve_without_viscosity(target_u, target_f, control, observer, iterations) {
+                equilibrated = true;
+                viscous_force_ratio = 0.0;
+            } else if relaxations > 0 {
+                let relaxed = self.relax_at_final_load(
+                    target_u,
+                    target_f,
+                    control,
+                    observer,
+                    iterations,
+                    (rate, viscous_force_ratio, relaxations),
+                );
+                increment += relaxed.dissipated;
+                equilibrated = relaxed.equilibrated;
+                viscous_force_ratio = relaxed.viscous_force_ratio;
             }
         }
         let energy = self.energy;
@@ -706,6 +713,139 @@ impl Problem {
             viscous_force_ratio,
             equilibrated,
         })
+    }
+
+    /// Re-solves the current increment without viscosity, from the damped state. On failure
+    /// the damped state (DOFs, terms' trial state, viscosity) is restored and `false`
+    /// returned.
+    fn resolve_without_viscosity(
+        &mut self,
+        target_u: &[f64],
+        target_f: &[f64],
+        control: &StepControl,
+        observer: &mut dyn Observer,
+        iterations: &mut usize,
+    ) -> bool {
+        let damped_u = self.u.clone();
+        // The re-solve may augment (contact multipliers, active sets): keep the damped
+        // state's terms so that a failed re-solve returns to exactly that state.
+        for term in &mut self.terms {
+            term.save_trial();
+        }
+        let rate = self.stabilizer.as_ref().map_or(0.0, |st| st.rate);
+        if let Some(st) = &mut self.stabilizer {
+            st.rate = 0.0;
+        }
+        match self.newton_increment(target_u, target_f, true, control, observer) {
+            Ok(more) => {
+                *iterations += more;
+                true
+            }
+            Err(_) => {
+                self.u = damped_u;
+                for term in &mut self.terms {
+                    term.restore_trial();
+                }
+                if let Some(st) = &mut self.stabilizer {
+                    st.rate = rate;
+                }
+                // The state was assembled there before: this cannot fail.
+                let _ = self.assemble_full(false);
+                false
+            }
+        }
+    }
+
+    /// Pseudo-transient continuation at the step's final load (Kelley & Keyes 1998): when
+    /// the re-solve without viscosity fails at the end of a stabilised step, the damped
+    /// state flows on at fixed load, one implicit viscous increment at a time from the
+    /// state the last one reached. The viscosity `c/Δt` starts at the last increment's
+    /// (`start.0`) and shrinks with the out-of-balance force (by the ratio of the last two
+    /// viscous-force norms, between 1/10 and 1/2 per increment; tenfold back up after a
+    /// failed one), so the flow goes down the energy towards a stable equilibrium and turns
+    /// into Newton's method as it gets there. Once the viscous force is within ten times
+    /// the residual tolerance the re-solve without viscosity is tried again. At most
+    /// `start.2` increments; the state reached is kept either way (its viscous force is at
+    /// most the damped state's), and the caller's check of the remaining viscous force
+    /// stands.
+    fn relax_at_final_load(
+        &mut self,
+        target_u: &[f64],
+        target_f: &[f64],
+        control: &StepControl,
+        observer: &mut dyn Observer,
+        iterations: &mut usize,
+        start: (f64, f64, usize),
+    ) -> FinalRelaxation {
+        let (mut rate, mut last_ratio, most) = start;
+        let tolerance = control.convergence.residual_tolerance;
+        let mut dissipated = 0.0;
+        for _ in 0..most {
+            let from = self.u.clone();
+            for term in &mut self.terms {
+                term.save_trial();
+            }
+            if let Some(st) = &mut self.stabilizer {
+                st.u_start.copy_from_slice(&self.u);
+                st.rate = rate;
+            }
+            match self.newton_increment(target_u, target_f, false, control, observer) {
+                Ok(more) => {
+                    *iterations += more;
+                    let Some(st) = self.stabilizer.as_ref() else {
+                        break;
+                    };
+                    dissipated += st.dissipation(&self.u);
+                    let scale = self.work.scale;
+                    let now = if scale > 0.0 {
+                        st.force_norm(&self.u) / scale
+                    } else {
+                        0.0
+                    };
+                    let shrink = if last_ratio > 0.0 {
+                        (now / last_ratio).clamp(RELAX_SHRINK_MOST, RELAX_SHRINK_LEAST)
+                    } else {
+                        RELAX_SHRINK_MOST
+                    };
+                    rate *= shrink;
+                    last_ratio = now;
+                    if now <= tolerance {
+                        let equilibrated = self.resolve_without_viscosity(
+                            target_u, target_f, control, observer, iterations,
+                        );
+                        return FinalRelaxation {
+                            dissipated,
+                            viscous_force_ratio: if equilibrated { 0.0 } else { now },
+                            equilibrated,
+                        };
+                    }
+                    if now <= RELAX_RESOLVE_FACTOR * tolerance
+                        && self.resolve_without_viscosity(
+                            target_u, target_f, control, observer, iterations,
+                        )
+                    {
+                        return FinalRelaxation {
+                            dissipated,
+                            viscous_force_ratio: 0.0,
+                            equilibrated: true,
+                        };
+                    }
+                }
+                Err(_) => {
+                    self.u = from;
+                    for term in &mut self.terms {
+                        term.restore_trial();
+                    }
+                    rate *= RELAX_BACK_OFF;
+                    let _ = self.assemble_full(false);
+                }
+            }
+        }
+        FinalRelaxation {
+            dissipated,
+            viscous_force_ratio: last_ratio,
+            equilibrated: false,
+        }
     }
 
     /// Value of a monitored quantity at the current state (`None` if a named term output
