@@ -736,7 +736,13 @@ impl Problem {
         if let Some(st) = &mut self.stabilizer {
             st.rate = 0.0;
         }
-        match self.newton_increment(target_u, target_f, true, control, observer) {
+        // Not `start_moved`: the damped state has every relaxation block in (damped)
+        // equilibrium already, and re-equilibrating them without viscosity before the first
+        // global step lets an unstable block (a held MT at its buckling load) jump to a far
+        // equilibrium of its own: measured on the suspended-cell compression with MTs on an
+        // elastic foundation, the re-solve then started at 0.12-0.44 of the force scale
+        // instead of the viscous forces' 1e-5 and diverged (docs/stabilization.md).
+        match self.newton_increment(target_u, target_f, false, control, observer) {
             Ok(more) => {
                 *iterations += more;
                 true
