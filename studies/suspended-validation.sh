@@ -18,6 +18,8 @@ HERE=$(dirname "$0")
     echo "compression-coupling: some cases failed (listed in its report)"
 "$CELLMECH" study "$HERE/suspended-tension-foundation.toml" --out "$OUT/tension-foundation" --jobs "$JOBS" ||
     echo "tension-foundation: some cases failed (listed in its report)"
+"$CELLMECH" study "$HERE/suspended-compression-foundation.toml" --out "$OUT/compression-foundation" --jobs "$JOBS" ||
+    echo "compression-foundation: some cases failed (listed in its report)"
 "$CELLMECH" study "$HERE/suspended-tension-mesh.toml" --out "$OUT/tension-mesh" --jobs "$JOBS" ||
     echo "tension-mesh: some cases failed (listed in its report)"
 "$CELLMECH" study "$HERE/suspended-compression-mesh.toml" --out "$OUT/compression-mesh" --jobs "$JOBS" ||
