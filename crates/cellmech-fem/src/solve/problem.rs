@@ -771,9 +771,8 @@ impl Problem {
     /// failed one), so the flow goes down the energy towards a stable equilibrium and turns
     /// into Newton's method as it gets there. Once the viscous force is within ten times
     /// the residual tolerance the re-solve without viscosity is tried again. At most
-    /// `start.2` increments; the state reached is kept either way (its viscous force is at
-    /// most the damped state's), and the caller's check of the remaining viscous force
-    /// stands.
+    /// `start.2` increments; the state reached is kept either way, with its own viscous
+    /// force reported, and the caller's check of that force stands.
     fn relax_at_final_load(
         &mut self,
         target_u: &[f64],
