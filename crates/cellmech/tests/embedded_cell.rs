@@ -18,6 +18,14 @@ use cellmech::run::run;
 use cellmech::scenario::parse;
 use cellmech_fem::solve::NullObserver;
 
+/// Runs the scenario `text` into a fresh temporary folder named after `name`.
+fn run_coarse(name: &str, text: &str) -> cellmech::run::RunSummary {
+    let s = parse(text, "test.toml", std::path::Path::new(".")).unwrap();
+    let dir = std::env::temp_dir().join(format!("cellmech-emb-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    run(&s, &dir, &mut NullObserver).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
 fn prestress(name: &str, coupling: &str) -> cellmech::run::RunSummary {
     let text = format!(
         "title = \"embedded\"\n[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n\
@@ -25,10 +33,7 @@ fn prestress(name: &str, coupling: &str) -> cellmech::run::RunSummary {
          [protocol]\nkind = \"prestress\"\n\
          [output]\nvtk_every = 0\n"
     );
-    let s = parse(&text, "test.toml", std::path::Path::new(".")).unwrap();
-    let dir = std::env::temp_dir().join(format!("cellmech-emb-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    run(&s, &dir, &mut NullObserver).unwrap_or_else(|e| panic!("{name}: {e}"))
+    run_coarse(name, &text)
 }
 
 #[test]
@@ -90,10 +95,7 @@ fn tension_with(name: &str, microtubules: &str) -> cellmech::run::RunSummary {
          [cell.microtubules]\n{microtubules}\n[protocol]\n\
          kind = \"micropipette-tension\"\n[output]\nvtk_every = 0\n"
     );
-    let s = parse(&text, "test.toml", std::path::Path::new(".")).unwrap();
-    let dir = std::env::temp_dir().join(format!("cellmech-emb-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    run(&s, &dir, &mut NullObserver).unwrap_or_else(|e| panic!("{name}: {e}"))
+    run_coarse(name, &text)
 }
 
 /// The cap-grip tension test to 6.3 µm with embedded MTs, stress-free in the prestressed
@@ -294,10 +296,7 @@ fn microtubules_on_an_elastic_foundation_complete_the_compression_and_add_to_it(
              stabilization = \"always\"\n[protocol]\nkind = \"microplate-compression\"\n\
              [output]\nvtk_every = 0\n"
         );
-        let s = parse(&text, "test.toml", std::path::Path::new(".")).unwrap();
-        let dir = std::env::temp_dir().join(format!("cellmech-emb-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        run(&s, &dir, &mut NullObserver).unwrap_or_else(|e| panic!("{name}: {e}"))
+        run_coarse(name, &text)
     };
     let free = compression("compression-free", "free");
     let held = compression("compression-foundation", "foundation");
