@@ -102,6 +102,40 @@ pub trait Term: Send + Sync {
 
     /// Return to the trial state kept by the last [`Term::save_trial`].
     fn restore_trial(&mut self) {}
+
+    /// Viscous stabilisation of the relative motions this term defines
+    /// ([`crate::solve::Damping::Relative`]): with `Some(drag)`, add to its forces a
+    /// viscous force against each relative motion since `drag.u_start` (e.g. a tied node's
+    /// slip relative to its material point), of stiffness `drag.rate` times a weight taken
+    /// from `drag.weight` (the stabiliser's per-DOF weights), and its derivative to the
+    /// tangent, so that Newton, line search and the relaxation blocks all see it; `None`
+    /// switches it off. Not part of the returned energy. Returns whether the term has such
+    /// motions. Default: none.
+    fn set_drag(&mut self, _drag: Option<&Drag<'_>>, _dof_map: &DofMap) -> bool {
+        false
+    }
+
+    /// Energy the drag of [`Term::set_drag`] dissipates from `drag.u_start` to `u`
+    /// (`Σ k_drag |Δ relative motion|²`, as the nodal viscosity's). Default: 0.
+    fn drag_dissipation(&self, _u: &[f64], _dof_map: &DofMap) -> f64 {
+        0.0
+    }
+
+    /// Adds the drag forces of [`Term::set_drag`] at `u` into `out` (global DOFs), for the
+    /// viscous-force check at the end of a step. Default: nothing.
+    fn add_drag_forces(&self, _u: &[f64], _dof_map: &DofMap, _out: &mut [f64]) {}
+}
+
+/// The viscous drag of a stabilised increment, handed to [`Term::set_drag`].
+#[derive(Debug, Clone, Copy)]
+pub struct Drag<'a> {
+    /// `c / Δt` of the increment (1/time × dimensionless).
+    pub rate: f64,
+    /// DOF values at the increment's start (the drag resists motion away from them).
+    pub u_start: &'a [f64],
+    /// The stabiliser's weight of each DOF (the absolute tangent diagonal at the step's
+    /// first assembly, nN/µm for translations).
+    pub weight: &'a [f64],
 }
 
 /// Where the load program is: a term's view of the analysis time.

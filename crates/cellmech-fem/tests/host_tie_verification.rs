@@ -22,7 +22,10 @@ use cellmech_fem::linsolve::{FaerSparseSolver, LinearSolver};
 use cellmech_fem::mesh::locate::hex8_inverse_map;
 use cellmech_fem::mesh::locate::hex8_shape;
 use cellmech_fem::mesh::surface::HEX8_CORNERS;
-use cellmech_fem::solve::{Motion, NullObserver, Problem, Step};
+use cellmech_fem::solve::{
+    Damping, IncrementReport, Motion, NullObserver, Observer, Problem, Stabilization,
+    StabilizationReport, Step,
+};
 use cellmech_fem::term::Term;
 use std::f64::consts::PI;
 
@@ -45,6 +48,13 @@ struct Model {
 }
 
 fn model(tied: bool) -> Model {
+    model_with_imperfection(tied, 0.0)
+}
+
+/// The model with the beam's nodes moved sideways (y) by `amplitude` × sin(15πx/L), the
+/// shape of the 15 half-waves the tied beam buckles into (the `m` that minimises
+/// `EI q_m² + k / q_m²`).
+fn model_with_imperfection(tied: bool, amplitude: f64) -> Model {
     // Host box nodes first (corners of [−1, L+1] × [−1, 1]²), then the beam along the x axis.
     let mut coords: Vec<[f64; 3]> = HEX8_CORNERS
         .iter()
@@ -55,7 +65,8 @@ fn model(tied: bool) -> Model {
     let h = LENGTH / ELEMENTS as f64;
     let beam_nodes: Vec<usize> = (0..=ELEMENTS)
         .map(|i| {
-            coords.push([i as f64 * h, 0.0, 0.0]);
+            let x = i as f64 * h;
+            coords.push([x, amplitude * (15.0 * PI * x / LENGTH).sin(), 0.0]);
             coords.len() - 1
         })
         .collect();
@@ -79,11 +90,7 @@ fn model(tied: bool) -> Model {
                 HostTie::new(n, host_nodes, hex8_shape(xi), K_FOUNDATION * h * share)
             })
             .collect();
-        HostTieSet {
-            name: "ties".into(),
-            ties,
-            enabled: true,
-        }
+        HostTieSet::new("ties", ties)
     });
     let mut counts = vec![3; coords.len()];
     beams.mark_rotational_nodes(&mut counts).unwrap();
@@ -256,4 +263,161 @@ fn without_ties_the_same_microtubule_buckles_at_the_euler_load() {
     println!("free MT: P_cr = {p_cr:.3e} nN, Euler {euler:.3e} nN");
     assert!((p_cr / euler - 1.0).abs() < 0.01, "{p_cr} vs {euler}");
     assert!(2.0 * (K_FOUNDATION * ei).sqrt() > 50.0 * p_cr);
+}
+
+/// Amplitude (µm) of the tied MT's initial waviness in the buckling test with viscosity.
+const IMPERFECTION: f64 = 1e-3;
+/// An explicit damping factor: the calibrated one depends on the whole predictor motion,
+/// rigid part included, and this test compares the drag itself with and without one.
+const DAMPING_FACTOR: f64 = 1e-7;
+
+#[derive(Default)]
+struct Reports(Vec<StabilizationReport>);
+
+impl Observer for Reports {
+    fn on_increment(&mut self, _problem: &Problem, report: &IncrementReport<'_>) {
+        if let Some(r) = report.stabilization {
+            self.0.push(r);
+        }
+    }
+}
+
+/// What one stabilised buckling run ended with.
+struct Buckled {
+    /// Energy the viscosity dissipated over the step (nN·µm).
+    dissipated: f64,
+    /// The last increment's stabilisation report.
+    last: StabilizationReport,
+    /// Largest lateral deflection of the beam relative to the host (µm).
+    deflection: f64,
+    /// Negative pivots of the tangent at the end: 0 for a stable equilibrium.
+    negative_pivots: usize,
+}
+
+/// Compresses the wavy tied MT (in the x-y plane: out-of-plane motion held) to 0.9 of its
+/// critical strain in one viscously stabilised step, which amplifies the waviness
+/// (by 1 / (1 − P/P_cr) for the buckling shape), while the host also moves sideways by `shift` (rigidly).
+fn buckle_with(damping: Damping, shift: f64) -> Buckled {
+    let section = mt_section();
+    let (ei, _) = section.bending_stiffness();
+    let strain = 0.9 * 2.0 * (K_FOUNDATION * ei).sqrt() / section.axial_stiffness();
+    let m = model_with_imperfection(true, IMPERFECTION);
+    let mut step = compression(&m, strain);
+    step.control.initial_increment = 0.1;
+    step.control.max_increment = 0.1;
+    step.control.stabilization = Some(Stabilization {
+        damping,
+        factor: Some(DAMPING_FACTOR),
+        ..Stabilization::default()
+    });
+    let (first, last) = (m.beam_nodes[0], *m.beam_nodes.last().unwrap());
+    for &n in m.host_nodes.iter().chain([first, last].iter()) {
+        let dof = m.dof_map.dof(n, 1);
+        for p in step.prescribed.iter_mut().filter(|p| p.0 == dof) {
+            p.1 = Motion::To(shift);
+        }
+    }
+    for &n in &m.beam_nodes {
+        for c in [2, 3, 4] {
+            let dof = m.dof_map.dof(n, c);
+            if !step.prescribed.iter().any(|p| p.0 == dof) {
+                step.prescribed.push((dof, Motion::Hold));
+            }
+        }
+    }
+    let mut problem = Problem::new(
+        m.dof_map.clone(),
+        terms(&m),
+        Box::new(FaerSparseSolver::new(1)),
+    )
+    .unwrap();
+    let mut reports = Reports::default();
+    problem.run_step(&step, &mut reports).unwrap();
+    let last = *reports
+        .0
+        .last()
+        .expect("stabilised increments are reported");
+    let deflection = m
+        .beam_nodes
+        .iter()
+        .map(|&n| (problem.u()[m.dof_map.dof(n, 1)] - shift).abs())
+        .fold(0.0, f64::max);
+    let n = problem.u().len();
+    let mask: Vec<bool> = (0..n).map(|d| problem.is_prescribed(d)).collect();
+    let pattern = problem.tangent_pattern().clone();
+    let mut values = vec![0.0; pattern.nnz()];
+    let mut r = vec![0.0; n];
+    problem
+        .assembler()
+        .assemble(
+            problem.terms(),
+            problem.u(),
+            &mask,
+            AssemblyOutput {
+                residual: &mut r,
+                magnitude: None,
+                tangent: Some(&mut values),
+                predictor: None,
+            },
+        )
+        .unwrap();
+    let mut linear = FaerSparseSolver::new(1);
+    linear.analyze(&pattern).unwrap();
+    let negative_pivots = linear
+        .factorize(&values)
+        .unwrap()
+        .negative_pivots
+        .expect("LDLT reports its inertia");
+    Buckled {
+        dissipated: last.step_dissipated,
+        last,
+        deflection,
+        negative_pivots,
+    }
+}
+
+#[test]
+fn the_drag_of_the_gel_damps_a_tied_microtubule_bending_and_ignores_rigid_motion() {
+    // Damping::Relative resists only the slip of the tied nodes relative to their material
+    // points (and the rotations): the beam's growing waviness is damped, the step ends in
+    // the stable equilibrium, and moving the whole assembly sideways by 5 µm changes
+    // nothing. The nodal viscosity (Abaqus's) resists that rigid motion too and dissipates
+    // far more energy on it.
+    let still = buckle_with(Damping::Relative, 0.0);
+    let moved = buckle_with(Damping::Relative, 5.0);
+    let nodal = buckle_with(Damping::Nodal, 0.0);
+    let nodal_moved = buckle_with(Damping::Nodal, 5.0);
+    for (name, b) in [
+        ("relative", &still),
+        ("relative, moved", &moved),
+        ("nodal", &nodal),
+        ("nodal, moved", &nodal_moved),
+    ] {
+        println!(
+            "{name}: dissipated {:.4e} nN·µm, deflection {:.5} µm, negative pivots {}",
+            b.dissipated, b.deflection, b.negative_pivots
+        );
+        assert!(
+            b.last.equilibrated,
+            "{name}: ends in equilibrium: {:?}",
+            b.last
+        );
+        assert_eq!(b.negative_pivots, 0, "{name}: a stable equilibrium");
+        // Near buckling the waviness grows several times (measured 4.7: the discrete
+        // critical load is a little above 2√(kEI)).
+        assert!(
+            b.deflection > 3.0 * IMPERFECTION,
+            "{name}: {}",
+            b.deflection
+        );
+    }
+    assert!((moved.deflection / still.deflection - 1.0).abs() < 1e-6);
+    assert!(still.dissipated > 0.0, "the buckling is damped");
+    assert!(
+        (moved.dissipated / still.dissipated - 1.0).abs() < 1e-6,
+        "{} vs {}",
+        moved.dissipated,
+        still.dissipated
+    );
+    assert!(nodal_moved.dissipated > 100.0 * moved.dissipated);
 }

@@ -68,6 +68,45 @@ pub fn host_tie_evaluate(
     Ok(0.5 * k * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]))
 }
 
+/// Adds to `residual` and `tangent` the viscous drag of one tie: a force `k_drag (g − g₀)`
+/// against the change of its gap `g = u_s − Σ N_i u_i` since the increment's start (`g₀`),
+/// shared between the node and the host nodes as the tie's own force is. Returns the energy
+/// it dissipates over that change, `k_drag |g − g₀|²`.
+pub fn host_tie_drag(
+    k_drag: f64,
+    weights: &[f64; 8],
+    gap_start: &[f64; 3],
+    u: &[f64],
+    residual: &mut [f64],
+    tangent: Option<&mut [f64]>,
+) -> f64 {
+    let c = |a: usize| if a == 0 { 1.0 } else { -weights[a - 1] };
+    let mut g = [0.0; 3];
+    for (i, gi) in g.iter_mut().enumerate() {
+        for a in 0..9 {
+            *gi += c(a) * u[3 * a + i];
+        }
+        *gi -= gap_start[i];
+    }
+    for a in 0..9 {
+        for i in 0..3 {
+            residual[3 * a + i] += k_drag * c(a) * g[i];
+        }
+    }
+    if let Some(t) = tangent {
+        let n = HOST_TIE_DOFS;
+        for a in 0..9 {
+            for b in 0..9 {
+                let kab = k_drag * c(a) * c(b);
+                for i in 0..3 {
+                    t[(3 * a + i) * n + 3 * b + i] += kab;
+                }
+            }
+        }
+    }
+    k_drag * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+}
+
 /// One tie of a node to a host element's material point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HostTie {
@@ -104,9 +143,22 @@ pub struct HostTieSet {
     pub ties: Vec<HostTie>,
     /// Whether the set takes part (a family switched off keeps its ties out).
     pub enabled: bool,
+    /// The viscous drag of a stabilised increment ([`crate::term::Term::set_drag`]): per
+    /// tie, its drag stiffness and its gap at the increment's start.
+    drag: Option<Vec<(f64, [f64; 3])>>,
 }
 
 impl HostTieSet {
+    /// A set named `name` of the ties `ties`, taking part.
+    pub fn new(name: impl Into<String>, ties: Vec<HostTie>) -> Self {
+        HostTieSet {
+            name: name.into(),
+            ties,
+            enabled: true,
+            drag: None,
+        }
+    }
+
     /// Gap `x_s − p − d₀ = u_s − Σ N_i u_i` of tie `e` at the global displacement `u` (µm), for outputs.
     pub fn gap(&self, e: usize, u: &[f64], dof_map: &crate::dof::DofMap) -> [f64; 3] {
         let t = &self.ties[e];
@@ -157,7 +209,72 @@ impl ElementSet for HostTieSet {
         tangent: Option<&mut [f64]>,
     ) -> Result<f64, KernelError> {
         let t = &self.ties[e];
-        host_tie_evaluate(t.stiffness, &t.weights, u_e, residual, tangent)
+        match &self.drag {
+            Some(drag) => {
+                let mut tangent = tangent;
+                let energy = host_tie_evaluate(
+                    t.stiffness,
+                    &t.weights,
+                    u_e,
+                    residual,
+                    tangent.as_deref_mut(),
+                )?;
+                let (k_drag, gap_start) = &drag[e];
+                host_tie_drag(*k_drag, &t.weights, gap_start, u_e, residual, tangent);
+                Ok(energy)
+            }
+            None => host_tie_evaluate(t.stiffness, &t.weights, u_e, residual, tangent),
+        }
+    }
+
+    /// The drag stiffness of a tie is `rate` times the mean weight of the tied node's three
+    /// translations: the tied node is damped against its material point as the nodal
+    /// viscosity would damp it against its place.
+    fn on_drag(
+        &mut self,
+        drag: Option<&crate::term::Drag<'_>>,
+        dof_map: &crate::dof::DofMap,
+    ) -> bool {
+        self.drag = drag.filter(|_| self.enabled).map(|d| {
+            (0..self.ties.len())
+                .map(|e| {
+                    let node = self.ties[e].nodes[0];
+                    let weight = (0..3).map(|i| d.weight[dof_map.dof(node, i)]).sum::<f64>() / 3.0;
+                    (d.rate * weight, self.gap(e, d.u_start, dof_map))
+                })
+                .collect()
+        });
+        self.enabled && !self.ties.is_empty()
+    }
+
+    fn drag_dissipation_of_set(&self, u: &[f64], dof_map: &crate::dof::DofMap) -> f64 {
+        let Some(drag) = &self.drag else {
+            return 0.0;
+        };
+        drag.iter()
+            .enumerate()
+            .map(|(e, (k_drag, g0))| {
+                let g = self.gap(e, u, dof_map);
+                k_drag * (0..3).map(|i| (g[i] - g0[i]).powi(2)).sum::<f64>()
+            })
+            .sum()
+    }
+
+    fn drag_forces_of_set(&self, u: &[f64], dof_map: &crate::dof::DofMap, out: &mut [f64]) {
+        let Some(drag) = &self.drag else {
+            return;
+        };
+        for (e, (k_drag, g0)) in drag.iter().enumerate() {
+            let t = &self.ties[e];
+            let g = self.gap(e, u, dof_map);
+            for i in 0..3 {
+                let f = k_drag * (g[i] - g0[i]);
+                out[dof_map.dof(t.nodes[0], i)] += f;
+                for a in 0..8 {
+                    out[dof_map.dof(t.nodes[a + 1], i)] -= t.weights[a] * f;
+                }
+            }
+        }
     }
 
     fn curve_outputs(&self, u: &[f64], dof_map: &crate::dof::DofMap) -> Vec<(String, f64)> {
@@ -261,6 +378,62 @@ mod tests {
             for a in 0..27 {
                 let fd = (rp[a] - r0[a]) / h;
                 assert!((fd - t[a * 27 + b]).abs() < 1e-6, "K[{a}][{b}]");
+            }
+        }
+    }
+
+    #[test]
+    fn the_drag_resists_the_change_of_the_gap_only_and_its_tangent_is_exact() {
+        let (tie, _) = tie_at([0.4, -0.3, 0.2], 2.0);
+        let g0 = [0.01, -0.02, 0.005];
+        let k_drag = 1.7;
+        let u: Vec<f64> = (0..27)
+            .map(|i| 0.02 * ((i * 5 % 13) as f64 - 6.0))
+            .collect();
+        let drag = |u: &[f64]| {
+            let mut r = [0.0; 27];
+            let mut t = [0.0; 729];
+            let d = host_tie_drag(k_drag, &tie.weights, &g0, u, &mut r, Some(&mut t));
+            (d, r, t)
+        };
+        let (d0, r0, t) = drag(&u);
+        // The dissipation is k_drag |g − g0|², the force k_drag (g − g0) on the node and
+        // its reaction spread over the host nodes by the weights.
+        let mut g = [0.0; 3];
+        for (i, gi) in g.iter_mut().enumerate() {
+            *gi = u[i]
+                - (0..8)
+                    .map(|a| tie.weights[a] * u[3 * (a + 1) + i])
+                    .sum::<f64>()
+                - g0[i];
+        }
+        let gg: f64 = g.iter().map(|v| v * v).sum();
+        assert!((d0 - k_drag * gg).abs() < 1e-14);
+        for i in 0..3 {
+            assert!((r0[i] - k_drag * g[i]).abs() < 1e-14);
+            let host: f64 = (1..9).map(|a| r0[3 * a + i]).sum();
+            assert!((host + r0[i]).abs() < 1e-13, "balanced");
+        }
+        // A rigid translation of node and host together changes nothing.
+        let shifted: Vec<f64> = u
+            .iter()
+            .enumerate()
+            .map(|(j, v)| v + [0.3, -1.1, 2.0][j % 3])
+            .collect();
+        let (d1, r1, _) = drag(&shifted);
+        assert!((d1 - d0).abs() < 1e-13);
+        assert!(r1.iter().zip(&r0).all(|(a, b)| (a - b).abs() < 1e-12));
+        // The tangent against central differences.
+        let h = 1e-6;
+        for b in 0..27 {
+            let (mut up, mut um) = (u.clone(), u.clone());
+            up[b] += h;
+            um[b] -= h;
+            let (_, rp, _) = drag(&up);
+            let (_, rm, _) = drag(&um);
+            for a in 0..27 {
+                let fd = (rp[a] - rm[a]) / (2.0 * h);
+                assert!((fd - t[a * 27 + b]).abs() < 1e-7, "K[{a}][{b}]");
             }
         }
     }

@@ -24,7 +24,7 @@
 
 use crate::dof::DofMap;
 use crate::element::KernelError;
-use crate::term::{Augmentation, LoadState, Term, TermOutput, MAX_ELEMENT_DOFS};
+use crate::term::{Augmentation, Drag, LoadState, Term, TermOutput, MAX_ELEMENT_DOFS};
 
 /// A family of elements sharing one kernel; every implementor is a [`Term`].
 pub trait ElementSet: Send + Sync {
@@ -126,6 +126,19 @@ pub trait ElementSet: Send + Sync {
 
     /// Back to the kept trial state ([`Term::restore_trial`]).
     fn on_restore_trial(&mut self) {}
+
+    /// Viscous drag of the set's relative motions ([`Term::set_drag`]).
+    fn on_drag(&mut self, _drag: Option<&Drag<'_>>, _dof_map: &DofMap) -> bool {
+        false
+    }
+
+    /// Energy dissipated by the drag ([`Term::drag_dissipation`]).
+    fn drag_dissipation_of_set(&self, _u: &[f64], _dof_map: &DofMap) -> f64 {
+        0.0
+    }
+
+    /// Drag forces into global DOFs ([`Term::add_drag_forces`]).
+    fn drag_forces_of_set(&self, _u: &[f64], _dof_map: &DofMap, _out: &mut [f64]) {}
 }
 
 impl<S: ElementSet> Term for S {
@@ -200,5 +213,17 @@ impl<S: ElementSet> Term for S {
 
     fn restore_trial(&mut self) {
         self.on_restore_trial()
+    }
+
+    fn set_drag(&mut self, drag: Option<&Drag<'_>>, dof_map: &DofMap) -> bool {
+        self.on_drag(drag, dof_map)
+    }
+
+    fn drag_dissipation(&self, u: &[f64], dof_map: &DofMap) -> f64 {
+        self.drag_dissipation_of_set(u, dof_map)
+    }
+
+    fn add_drag_forces(&self, u: &[f64], dof_map: &DofMap, out: &mut [f64]) {
+        self.drag_forces_of_set(u, dof_map, out)
     }
 }

@@ -173,6 +173,28 @@ pub struct Stabilization {
     /// shrinks as its out-of-balance force does (pseudo-transient continuation), and the
     /// re-solve is tried again once that force is near the tolerance. 0: none.
     pub end_relaxation_increments: usize,
+    /// Which motions the viscosity resists: every free DOF's (Abaqus), or only the relative
+    /// motions that terms define (a fibre moving through the continuum it is tied to).
+    pub damping: Damping,
+}
+
+/// Which motions the viscous stabilisation resists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Damping {
+    /// Every free DOF's motion over the increment, `(c/Δt) m_d Δu_d` (Abaqus `*STATIC,
+    /// STABILIZE`): simple and general, but a body that moves a lot without any instability
+    /// (a cell squeezed between plates) dissipates energy too, and a boosted viscosity slows
+    /// all of it.
+    #[default]
+    Nodal,
+    /// Only the relative motions that terms define through [`crate::term::Term::set_drag`]
+    /// (a tied fibre node moving relative to its material point in the host: the drag of a
+    /// viscous medium on a filament). Rigid motions and the continuum's own deformation are
+    /// free; an instability that lives in the tied fibres (their buckling on the elastic
+    /// foundation) is damped where it happens. A model without such terms is not damped at
+    /// all, so this is for models with tied fibres.
+    Relative,
 }
 
 /// Failed attempts in a row (the same increment cut again and again) after which
@@ -201,6 +223,7 @@ impl Default for Stabilization {
             activation: Activation::Always,
             max_end_viscous_force: 1e-3,
             end_relaxation_increments: 20,
+            damping: Damping::Nodal,
         }
     }
 }

@@ -18,7 +18,7 @@ mod stabilize;
 mod step;
 
 pub use control::{
-    Activation, Convergence, Extrapolation, IterationMethod, Stabilization, StepControl,
+    Activation, Convergence, Damping, Extrapolation, IterationMethod, Stabilization, StepControl,
     CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW, NEAR_EQUILIBRIUM, ON_DIFFICULTY_FAILURES,
 };
 pub use error::{FailureReason, SolveError};

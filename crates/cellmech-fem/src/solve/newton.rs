@@ -32,7 +32,7 @@ const ROUND_OFF: f64 = 1e-13;
 /// round-off of the coordinates: converged.
 pub(super) const COORDINATE_ROUND_OFF: f64 = 1e-13;
 
-fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
+pub(super) fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
     v.iter()
         .zip(mask)
         .filter(|(_, &m)| m == want)
@@ -112,7 +112,7 @@ impl Problem {
                 let energy = self.correction_work();
                 if let Some(st) = &mut self.stabilizer {
                     st.calibrate(Some(&self.work.delta), energy);
-                    st.rate = 0.0;
+                    st.set_rate(0.0);
                 }
             }
             None => self.factorize_and_solve()?,
@@ -436,6 +436,7 @@ impl Problem {
         if with_tangent {
             return self.assemble_full(false);
         }
+        self.sync_drag();
         let start = Instant::now();
         let (assembler, terms, u, prescribed) =
             (&self.assembler, &self.terms, &self.u, &self.prescribed);
@@ -544,6 +545,7 @@ impl Problem {
 
     /// Assembles residual, tangent (and the prescribed-motion predictor when asked) at `u`.
     pub(super) fn assemble_full(&mut self, with_predictor: bool) -> Result<(), FailureReason> {
+        self.sync_drag();
         let start = Instant::now();
         let predictor = with_predictor.then_some((
             self.work.du_prescribed.as_slice(),
@@ -581,9 +583,11 @@ impl Problem {
             let pattern = solver_pattern(&self.condensation, &self.assembler);
             let constraints = self.condensation.as_ref().map(|c| c.constraints());
             let (prescribed, values) = (&self.prescribed, &self.work.values);
+            let dof_map = &self.dof_map;
             st.set_weights(
                 |d| !prescribed[d] && !constraints.is_some_and(|c| c.is_slave(d)),
                 |d| values[pattern.col_ptr[d]],
+                |d| dof_map.node_of(d).1 >= 3,
             );
         }
         st.factor.is_none().then_some(st.active)
@@ -602,12 +606,23 @@ impl Problem {
         let delta = undamped.is_ok().then_some(self.work.delta.as_slice());
         st.calibrate(delta, energy);
         st.add_tangent(&mut self.work.values, |d| pattern.col_ptr[d]);
+        if !st.nodal() {
+            // The drag lives in the terms: assemble again with it (the start may have
+            // moved from the increment's start, so its forces are not zero either).
+            self.assemble_full(true)?;
+            for d in 0..self.u.len() {
+                if !self.prescribed[d] {
+                    self.work.rhs[d] = self.f_ext[d] - self.residual[d] - self.work.predictor[d];
+                }
+            }
+        }
         self.factorize_and_solve()
     }
 
     /// Residual only at `u + s δ` (into `residual_trial`, with its magnitude and energy);
     /// returns δ·R(s) on free DOFs.
     fn trial_projection(&mut self, s: f64) -> Result<f64, FailureReason> {
+        self.sync_drag();
         let start = Instant::now();
         self.work.trial_step = None;
         for d in 0..self.u.len() {
@@ -718,6 +733,7 @@ impl Problem {
     /// Moves every relaxation block to its own equilibrium at the current `u` (see
     /// `solve::relax`), holding prescribed and constrained DOFs.
     fn relax_blocks(&mut self, tolerance: f64) {
+        self.sync_drag();
         let Some(relaxation) = &mut self.relaxation else {
             return;
         };
@@ -729,7 +745,7 @@ impl Problem {
             .stabilizer
             .as_ref()
             .filter(|st| st.rate != 0.0)
-            .map(|st| (st.weight.as_slice(), st.u_start.as_slice(), st.rate));
+            .map(|st| (st.nodal_weight.as_slice(), st.u_start.as_slice(), st.rate));
         let (pool, terms, u) = (&self.pool, &self.terms, &mut self.u);
         pool.install(|| {
             relaxation.relax(

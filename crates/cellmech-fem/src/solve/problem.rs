@@ -111,6 +111,8 @@ pub struct Problem {
     pub(super) stabilizer: Option<Stabilizer>,
     /// Blocks of DOFs re-equilibrated after every global update (nonlinear elimination).
     pub(super) relaxation: Option<Relaxation>,
+    /// The stabiliser epoch the terms' drag was last set from (`None`: drag off).
+    pub(super) drag_epoch: Option<u64>,
 }
 
 /// Receives the solver's events: CSV rows, VTU frames, progress bars and the convergence
@@ -256,6 +258,7 @@ impl Problem {
             condensation,
             stabilizer: None,
             relaxation: None,
+            drag_epoch: None,
         })
     }
 
@@ -387,6 +390,8 @@ impl Problem {
         }
         let control = &step.control;
         self.stabilizer = control.stabilization.map(|s| Stabilizer::new(s, n));
+        // A new stabiliser counts its epochs from 0 again: switch the old drag off first.
+        self.sync_drag();
         let mut time = 0.0;
         let mut dt = control.initial_increment.min(control.max_increment);
         let mut increments = 0;
@@ -657,6 +662,59 @@ impl Problem {
         Ok(())
     }
 
+    /// Energy the viscosity dissipated since the increment's start and the norm of its
+    /// forces at the current state (nodal viscosity and the terms' drag, on the free DOFs);
+    /// `None` without stabilisation.
+    fn viscous_dissipation_and_force(&mut self) -> Option<(f64, f64)> {
+        let st = self.stabilizer.as_ref()?;
+        let mut dissipated = st.dissipation(&self.u);
+        let mut force = st.force_norm(&self.u);
+        if self.drag_epoch.is_some() {
+            // Once per increment: the allocation does not matter.
+            let mut forces = vec![0.0; self.u.len()];
+            for term in &self.terms {
+                dissipated += term.drag_dissipation(&self.u, &self.dof_map);
+                term.add_drag_forces(&self.u, &self.dof_map, &mut forces);
+            }
+            let drag = super::newton::norm_where(&forces, &self.prescribed, false);
+            force = (force * force + drag * drag).sqrt();
+        }
+        Some((dissipated, force))
+    }
+
+    /// Sets the terms' drag ([`crate::term::Term::set_drag`]) from the stabiliser when its
+    /// rate or start state changed since the last call, and switches it off when the
+    /// stabiliser is gone, off, or nodal.
+    pub(super) fn sync_drag(&mut self) {
+        let wanted = self
+            .stabilizer
+            .as_ref()
+            .filter(|st| !st.nodal() && st.rate != 0.0)
+            .map(|st| st.epoch);
+        if wanted == self.drag_epoch {
+            return;
+        }
+        let (terms, dof_map) = (&mut self.terms, &self.dof_map);
+        match (&self.stabilizer, wanted) {
+            (Some(st), Some(_)) => {
+                let drag = crate::term::Drag {
+                    rate: st.rate,
+                    u_start: &st.u_start,
+                    weight: &st.weight,
+                };
+                for term in terms.iter_mut() {
+                    term.set_drag(Some(&drag), dof_map);
+                }
+            }
+            _ => {
+                for term in terms.iter_mut() {
+                    term.set_drag(None, dof_map);
+                }
+            }
+        }
+        self.drag_epoch = wanted;
+    }
+
     /// After a stabilised increment converged: books its dissipated energy and, at the end
     /// of the step, re-solves without viscosity so the final state is an equilibrium (the
     /// damped state is kept when that fails). `None` without stabilisation.
@@ -669,11 +727,11 @@ impl Problem {
         observer: &mut dyn Observer,
         iterations: &mut usize,
     ) -> Option<StabilizationReport> {
+        let (mut increment, force) = self.viscous_dissipation_and_force()?;
         let st = self.stabilizer.as_ref()?;
-        let mut increment = st.dissipation(&self.u);
         let scale = self.work.scale;
         let ratio = |force: f64| if scale > 0.0 { force / scale } else { 0.0 };
-        let mut viscous_force_ratio = ratio(st.force_norm(&self.u));
+        let mut viscous_force_ratio = ratio(force);
         let rate = st.rate;
         let relaxations = st.settings.end_relaxation_increments;
         let mut equilibrated = rate == 0.0;
@@ -734,7 +792,7 @@ impl Problem {
         }
         let rate = self.stabilizer.as_ref().map_or(0.0, |st| st.rate);
         if let Some(st) = &mut self.stabilizer {
-            st.rate = 0.0;
+            st.set_rate(0.0);
         }
         // Not `start_moved`: the damped state has every relaxation block in (damped)
         // equilibrium already, and re-equilibrating them without viscosity before the first
@@ -753,7 +811,7 @@ impl Problem {
                     term.restore_trial();
                 }
                 if let Some(st) = &mut self.stabilizer {
-                    st.rate = rate;
+                    st.set_rate(rate);
                 }
                 // The state was assembled there before: this cannot fail.
                 let _ = self.assemble_full(false);
@@ -791,22 +849,17 @@ impl Problem {
                 term.save_trial();
             }
             if let Some(st) = &mut self.stabilizer {
-                st.u_start.copy_from_slice(&self.u);
-                st.rate = rate;
+                st.restart_from(&self.u, rate);
             }
             match self.newton_increment(target_u, target_f, false, control, observer) {
                 Ok(more) => {
                     *iterations += more;
-                    let Some(st) = self.stabilizer.as_ref() else {
+                    let Some((increment, force)) = self.viscous_dissipation_and_force() else {
                         break;
                     };
-                    dissipated += st.dissipation(&self.u);
+                    dissipated += increment;
                     let scale = self.work.scale;
-                    let now = if scale > 0.0 {
-                        st.force_norm(&self.u) / scale
-                    } else {
-                        0.0
-                    };
+                    let now = if scale > 0.0 { force / scale } else { 0.0 };
                     let shrink = if last_ratio > 0.0 {
                         (now / last_ratio).clamp(RELAX_SHRINK_MOST, RELAX_SHRINK_LEAST)
                     } else {

@@ -49,7 +49,7 @@
 //! fails (the structure is still unstable there), the damped state is kept and the
 //! remaining viscous force is reported.
 
-use super::control::{Activation, Stabilization, ON_DIFFICULTY_FAILURES};
+use super::control::{Activation, Damping, Stabilization, ON_DIFFICULTY_FAILURES};
 
 /// Factor on `c` after a failed increment.
 const BOOST: f64 = 10.0;
@@ -61,8 +61,13 @@ const MAX_BOOST: f64 = 1e8;
 pub(super) struct Stabilizer {
     /// The step's settings.
     pub settings: Stabilization,
-    /// Weight `m_d` of each DOF (0 where not damped).
+    /// Weight `m_d` of each DOF (0 where not damped): calibrates `c`, and scales the
+    /// terms' drag with [`Damping::Relative`].
     pub weight: Vec<f64>,
+    /// Weight of the viscosity applied at each DOF itself: `weight` with [`Damping::Nodal`],
+    /// only the rotations' with [`Damping::Relative`] (the translations are damped through
+    /// the terms' drag).
+    pub nodal_weight: Vec<f64>,
     /// DOF values at the start of the current increment.
     pub u_start: Vec<f64>,
     /// Damping factor `c`, once calibrated.
@@ -83,6 +88,9 @@ pub(super) struct Stabilizer {
     pub dissipated: f64,
     /// Times `c` was halved to keep the dissipated energy small.
     pub halvings: usize,
+    /// Bumped whenever `rate` or `u_start` changes, so that the terms' drag
+    /// ([`Damping::Relative`]) is set again only then.
+    pub epoch: u64,
 }
 
 /// What the stabilisation did in one converged increment.
@@ -112,6 +120,7 @@ impl Stabilizer {
             base: settings.factor.unwrap_or(0.0),
             settings,
             weight: vec![0.0; n],
+            nodal_weight: vec![0.0; n],
             u_start: vec![0.0; n],
             rate: 0.0,
             dt: 1.0,
@@ -120,11 +129,37 @@ impl Stabilizer {
             failures_in_a_row: 0,
             dissipated: 0.0,
             halvings: 0,
+            epoch: 0,
         }
     }
 
-    /// Sets the weights from the tangent's diagonal (`diagonal(d)`) on the damped DOFs.
-    pub fn set_weights(&mut self, damped: impl Fn(usize) -> bool, diagonal: impl Fn(usize) -> f64) {
+    /// Whether the viscosity acts on every free DOF (else only through the terms' drag).
+    pub fn nodal(&self) -> bool {
+        self.settings.damping == Damping::Nodal
+    }
+
+    /// Sets `c / Δt` (0 switches the forces off).
+    pub fn set_rate(&mut self, rate: f64) {
+        self.rate = rate;
+        self.epoch += 1;
+    }
+
+    /// Restarts the viscous motion from `u` with `c / Δt = rate`.
+    pub fn restart_from(&mut self, u: &[f64], rate: f64) {
+        self.u_start.copy_from_slice(u);
+        self.set_rate(rate);
+    }
+
+    /// Sets the weights from the tangent's diagonal (`diagonal(d)`) on the damped DOFs;
+    /// `rotation(d)` says which DOFs are rotations (damped at the DOF itself with
+    /// [`Damping::Relative`] too: a filament's cross-sections turning in the gel, measured
+    /// against a gel that does not spin, which holds in these tests).
+    pub fn set_weights(
+        &mut self,
+        damped: impl Fn(usize) -> bool,
+        diagonal: impl Fn(usize) -> f64,
+        rotation: impl Fn(usize) -> bool,
+    ) {
         let (mut sum, mut count) = (0.0, 0usize);
         for (d, w) in self.weight.iter_mut().enumerate() {
             *w = if damped(d) { diagonal(d).abs() } else { 0.0 };
@@ -140,6 +175,14 @@ impl Stabilizer {
             if *w == 0.0 && damped(d) {
                 *w = mean;
             }
+        }
+        let nodal = self.nodal();
+        for (d, w) in self.nodal_weight.iter_mut().enumerate() {
+            *w = if nodal || rotation(d) {
+                self.weight[d]
+            } else {
+                0.0
+            };
         }
         self.weighted = true;
     }
@@ -160,7 +203,7 @@ impl Stabilizer {
         };
         self.factor = Some(c);
         self.base = c;
-        self.rate = c / dt;
+        self.set_rate(c / dt);
         c
     }
 
@@ -188,6 +231,7 @@ impl Stabilizer {
             Some(c) if self.active => c / dt,
             _ => 0.0,
         };
+        self.epoch += 1;
     }
 
     /// Adds the viscous forces at `u` to `residual` (internal forces).
@@ -195,7 +239,7 @@ impl Stabilizer {
         if self.rate == 0.0 {
             return;
         }
-        for (d, &w) in self.weight.iter().enumerate() {
+        for (d, &w) in self.nodal_weight.iter().enumerate() {
             if w > 0.0 {
                 residual[d] += self.rate * w * (u[d] - self.u_start[d]);
             }
@@ -207,16 +251,17 @@ impl Stabilizer {
         if self.rate == 0.0 {
             return;
         }
-        for (d, &w) in self.weight.iter().enumerate() {
+        for (d, &w) in self.nodal_weight.iter().enumerate() {
             if w > 0.0 {
                 values[diagonal_position(d)] += self.rate * w;
             }
         }
     }
 
-    /// Energy the viscous forces dissipate moving from the increment start to `u`.
+    /// Energy the viscous forces at the DOFs dissipate moving from the increment start to
+    /// `u` (with [`Damping::Relative`] only the rotations': the terms' drag books its own).
     pub fn dissipation(&self, u: &[f64]) -> f64 {
-        self.weight
+        self.nodal_weight
             .iter()
             .enumerate()
             .map(|(d, &w)| {
@@ -226,9 +271,9 @@ impl Stabilizer {
             .sum()
     }
 
-    /// ‖viscous forces‖ at `u`.
+    /// ‖viscous forces at the DOFs‖ at `u` (the terms' drag not included).
     pub fn force_norm(&self, u: &[f64]) -> f64 {
-        self.weight
+        self.nodal_weight
             .iter()
             .enumerate()
             .map(|(d, &w)| {

@@ -418,11 +418,10 @@ fn foundation_ties(
             shared_nodes: shared,
             max_overshoot,
         });
-        terms.push(Box::new(HostTieSet {
-            name: format!("{}_ties", spec.name),
+        terms.push(Box::new(HostTieSet::new(
+            format!("{}_ties", spec.name),
             ties,
-            enabled: true,
-        }));
+        )));
     }
     Ok((terms, summaries))
 }

@@ -7,7 +7,7 @@
 
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
 use crate::units::Dimension::{Dimensionless, Length, Pressure};
-use cellmech_fem::solve::{Activation, IterationMethod, Stabilization};
+use cellmech_fem::solve::{Activation, Damping, IterationMethod, Stabilization};
 
 use super::cytoskeleton::IfAnchorRule;
 use super::density::{DensityParams, MAX_EXTRA_FILAMENTS};
@@ -211,6 +211,8 @@ pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
 );
 /// `solver.stabilization` (shared by the cell models).
 pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::Choice(&["off", "on-difficulty", "always"]), D::Word("on-difficulty"), ANY, "viscous stabilisation of every step ([stabilisation](stabilization.md)): off; switched on at a step's first failed increment (a step that converges without it is unchanged); or from each step's start", "choice (Abaqus `*STATIC, STABILIZE`)");
+/// `solver.damping` (shared by the cell models).
+pub(crate) const SOLVER_DAMPING: ParamDef = p("solver.damping", K::Choice(&["nodal", "filament-drag"]), D::Word("nodal"), ANY, "what the viscous stabilisation resists: `nodal`, every free node's motion over the increment (Abaqus); `filament-drag`, only the slip of the filament nodes tied to the gel relative to their material points (the drag of a viscous cytoplasm on a filament moving through it: rigid motion and the gel's own deformation are not damped; needs filaments on an elastic foundation)", "choice ([stabilisation](stabilization.md#relative-damping))");
 /// `solver.iteration` (shared by the cell models).
 pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["auto", "newton", "bfgs"]), D::Word("auto"), ANY, "corrections after each increment's first: `newton`, full Newton in every step (a factorisation per iteration, chord steps near convergence); `bfgs`, quasi-Newton in every step (the increment's factorisation kept, up to 10 rank-two updates; a failed increment is retried with full Newton); `auto`, BFGS in the microplate compression's loading steps when no filament node is tied to the gel, full Newton everywhere else", "choice, measured ([performance](performance.md#bfgs-where-it-pays-2026-12-04-sixth-session)): BFGS halves the free cell's compression factorisations (fast mesh 86 -> 50, default mesh 111 -> 59; forces within 2e-8, 4e-5 where a cut-back changed the path) but is not reliably cheaper with embedded filaments, costs cut-backs in tension without AFs and at ~100 % elongation, and moves the AFM curve by 0.8 % (FEBio's default is BFGS)");
 /// `solver.relaxation` (shared by the cell models).
@@ -463,6 +465,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         MICROTUBULES_CENTROSOME,
         MICROTUBULES_STRESS_FREE,
         SOLVER_STABILIZATION,
+        SOLVER_DAMPING,
         SOLVER_ITERATION,
         SOLVER_RELAXATION,
         SOLVER_CHORD,
@@ -625,8 +628,13 @@ pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
         "on-difficulty" => Activation::OnDifficulty,
         _ => return None,
     };
+    let damping = match v.word("solver.damping") {
+        "filament-drag" => Damping::Relative,
+        _ => Damping::Nodal,
+    };
     Some(Stabilization {
         activation,
+        damping,
         ..Stabilization::default()
     })
 }
