@@ -87,3 +87,40 @@ fn the_default_foundation_modulus_is_the_cytoplasm_youngs_modulus() {
     );
     assert!((modulus(&given) - 0.05).abs() < 1e-15);
 }
+
+#[test]
+fn filament_drag_needs_filaments_on_the_foundation() {
+    // The drag acts on the tie slips: with free MTs there is none, and the scenario is
+    // refused before anything is solved, naming the key and the fix.
+    let text = "title = \"drag\"\n[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n\
+                [cell.solver]\ndamping = \"filament-drag\"\n[protocol]\nkind = \"prestress\"\n";
+    let error = match parse(text, "drag.toml", std::path::Path::new(".")) {
+        Ok(s) => build(&s.model).err().map(|e| e.to_string()),
+        Err(e) => Some(e.to_string()),
+    }
+    .expect("refused");
+    assert!(error.contains("drag.toml"), "{error}");
+    assert!(error.contains("solver.damping"), "{error}");
+    assert!(error.contains("coupling = \"foundation\""), "{error}");
+    // With the foundation it builds, and the viscosity is the relative one.
+    let tied = parse(
+        &text.replace(
+            "[cell.solver]",
+            "[cell.microtubules]\ncoupling = \"foundation\"\n[cell.solver]",
+        ),
+        "drag.toml",
+        std::path::Path::new("."),
+    )
+    .unwrap();
+    let built = build(&tied.model).unwrap();
+    assert_eq!(built.embedding.len(), 1);
+    for step in &built.steps {
+        let damping = step.control.stabilization.map(|s| s.damping);
+        assert_eq!(
+            damping,
+            Some(cellmech_fem::solve::Damping::Relative),
+            "{}",
+            step.name
+        );
+    }
+}

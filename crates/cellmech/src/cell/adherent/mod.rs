@@ -160,6 +160,7 @@ impl AdherentCell {
     /// Builds the cell: refined mesh, materials, structures, the clamped base, and the
     /// prestress step.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
+        crate::cell::suspended::check_damping(self.stabilization, &self.coupling)?;
         let geometry = AdherentCellGeometry::build(&self.params, self.site)
             .map_err(component("adherent cell"))?;
         let mut mesh = geometry.mesh.clone();

@@ -132,6 +132,28 @@ pub(crate) fn component<E: std::fmt::Display>(
     }
 }
 
+/// `solver.damping = "filament-drag"` damps the slip of filament nodes tied to the gel, so it
+/// needs such ties (MTs on an elastic foundation): without them nothing but the filaments'
+/// rotations would be damped.
+pub(crate) fn check_damping(
+    stabilization: Option<cellmech_fem::solve::Stabilization>,
+    coupling: &Coupling,
+) -> Result<(), CellModelError> {
+    let relative =
+        stabilization.is_some_and(|s| s.damping == cellmech_fem::solve::Damping::Relative);
+    if relative && coupling.microtubule_foundation.is_none() {
+        return Err(CellModelError::Component {
+            component: "solver.damping",
+            message: "expected filaments tied to the gel for \"filament-drag\" (it damps their \
+                      slip): set `microtubules.coupling = \"foundation\"`, or \
+                      `solver.damping = \"nodal\"`; found MTs that are not on an elastic \
+                      foundation"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
 fn positive(component: &'static str, what: &str, value: f64) -> Result<f64, CellModelError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
@@ -684,6 +706,7 @@ impl SuspendedCell {
     /// Builds the cell: mesh, materials, structures, 3-2-1 supports, the nucleus shape
     /// probe, and the prestress step every protocol starts with.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
+        check_damping(self.stabilization, &self.coupling)?;
         let parts = suspended_cell_parts(&self.params, &self.materials, self.components)?;
         let params = &self.params;
         let report = &parts.geometry.report;
