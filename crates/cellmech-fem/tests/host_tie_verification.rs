@@ -143,6 +143,31 @@ fn inertia(m: &Model, strain: f64, mode: Option<&mut Vec<f64>>) -> usize {
     problem
         .run_step(&compression(m, strain), &mut NullObserver)
         .unwrap();
+    let (mut linear, mask, negative_pivots) = factorized_tangent(&problem);
+    let n = mask.len();
+    if let Some(x) = mode {
+        let mut seed = 7u64;
+        for v in x.iter_mut() {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+            *v = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        }
+        for _ in 0..60 {
+            for d in 0..n {
+                if mask[d] {
+                    x[d] = 0.0;
+                }
+            }
+            linear.solve_in_place(x).unwrap();
+            let s = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+            x.iter_mut().for_each(|v| *v /= s);
+        }
+    }
+    negative_pivots
+}
+
+/// The tangent at the problem's state, factorised (LDLᵀ), with the prescribed-DOF mask and
+/// the number of negative pivots (0 for a stable equilibrium).
+fn factorized_tangent(problem: &Problem) -> (FaerSparseSolver, Vec<bool>, usize) {
     let n = problem.u().len();
     let mask: Vec<bool> = (0..n).map(|d| problem.is_prescribed(d)).collect();
     let pattern = problem.tangent_pattern().clone();
@@ -164,25 +189,12 @@ fn inertia(m: &Model, strain: f64, mode: Option<&mut Vec<f64>>) -> usize {
         .unwrap();
     let mut linear = FaerSparseSolver::new(1);
     linear.analyze(&pattern).unwrap();
-    let info = linear.factorize(&values).unwrap();
-    if let Some(x) = mode {
-        let mut seed = 7u64;
-        for v in x.iter_mut() {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
-            *v = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-        }
-        for _ in 0..60 {
-            for d in 0..n {
-                if mask[d] {
-                    x[d] = 0.0;
-                }
-            }
-            linear.solve_in_place(x).unwrap();
-            let s = x.iter().map(|v| v * v).sum::<f64>().sqrt();
-            x.iter_mut().for_each(|v| *v /= s);
-        }
-    }
-    info.negative_pivots.expect("LDLT reports its inertia")
+    let negative_pivots = linear
+        .factorize(&values)
+        .unwrap()
+        .negative_pivots
+        .expect("LDLT reports its inertia");
+    (linear, mask, negative_pivots)
 }
 
 /// Critical strain by bisection on the inertia, starting from a bracket guess.
@@ -342,32 +354,7 @@ fn buckle_with(damping: Damping, shift: f64) -> Buckled {
         .iter()
         .map(|&n| (problem.u()[m.dof_map.dof(n, 1)] - shift).abs())
         .fold(0.0, f64::max);
-    let n = problem.u().len();
-    let mask: Vec<bool> = (0..n).map(|d| problem.is_prescribed(d)).collect();
-    let pattern = problem.tangent_pattern().clone();
-    let mut values = vec![0.0; pattern.nnz()];
-    let mut r = vec![0.0; n];
-    problem
-        .assembler()
-        .assemble(
-            problem.terms(),
-            problem.u(),
-            &mask,
-            AssemblyOutput {
-                residual: &mut r,
-                magnitude: None,
-                tangent: Some(&mut values),
-                predictor: None,
-            },
-        )
-        .unwrap();
-    let mut linear = FaerSparseSolver::new(1);
-    linear.analyze(&pattern).unwrap();
-    let negative_pivots = linear
-        .factorize(&values)
-        .unwrap()
-        .negative_pivots
-        .expect("LDLT reports its inertia");
+    let (_, _, negative_pivots) = factorized_tangent(&problem);
     Buckled {
         dissipated: last.step_dissipated,
         last,

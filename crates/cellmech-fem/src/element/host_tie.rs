@@ -40,32 +40,12 @@ pub fn host_tie_evaluate(
     residual: &mut [f64],
     tangent: Option<&mut [f64]>,
 ) -> Result<f64, KernelError> {
-    // Coefficient of each node in the gap.
-    let c = |a: usize| if a == 0 { 1.0 } else { -weights[a - 1] };
-    let mut g = [0.0; 3];
-    for (i, gi) in g.iter_mut().enumerate() {
-        for a in 0..9 {
-            *gi += c(a) * u[3 * a + i];
-        }
-    }
-    for a in 0..9 {
-        for i in 0..3 {
-            residual[3 * a + i] = k * c(a) * g[i];
-        }
-    }
-    if let Some(t) = tangent {
-        let n = HOST_TIE_DOFS;
-        t[..n * n].fill(0.0);
-        for a in 0..9 {
-            for b in 0..9 {
-                let kab = k * c(a) * c(b);
-                for i in 0..3 {
-                    t[(3 * a + i) * n + 3 * b + i] = kab;
-                }
-            }
-        }
-    }
-    Ok(0.5 * k * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]))
+    residual[..HOST_TIE_DOFS].fill(0.0);
+    let tangent = tangent.map(|t| {
+        t[..HOST_TIE_DOFS * HOST_TIE_DOFS].fill(0.0);
+        t
+    });
+    Ok(0.5 * k * add_gap_spring(k, weights, &[0.0; 3], u, residual, tangent))
 }
 
 /// Adds to `residual` and `tangent` the viscous drag of one tie: a force `k_drag (g − g₀)`
@@ -80,31 +60,46 @@ pub fn host_tie_drag(
     residual: &mut [f64],
     tangent: Option<&mut [f64]>,
 ) -> f64 {
+    k_drag * add_gap_spring(k_drag, weights, gap_start, u, residual, tangent)
+}
+
+/// Adds the force `k (g − g₀)` of a spring on the tie's gap `g = u_s − Σ N_i u_i` to the
+/// node (coefficient 1) and the host nodes (coefficients `−N_i`), and its tangent
+/// `k c_a c_b I`; returns `|g − g₀|²`.
+fn add_gap_spring(
+    k: f64,
+    weights: &[f64; 8],
+    g0: &[f64; 3],
+    u: &[f64],
+    residual: &mut [f64],
+    tangent: Option<&mut [f64]>,
+) -> f64 {
+    // Coefficient of each node in the gap.
     let c = |a: usize| if a == 0 { 1.0 } else { -weights[a - 1] };
     let mut g = [0.0; 3];
     for (i, gi) in g.iter_mut().enumerate() {
+        *gi = -g0[i];
         for a in 0..9 {
             *gi += c(a) * u[3 * a + i];
         }
-        *gi -= gap_start[i];
     }
     for a in 0..9 {
         for i in 0..3 {
-            residual[3 * a + i] += k_drag * c(a) * g[i];
+            residual[3 * a + i] += k * c(a) * g[i];
         }
     }
     if let Some(t) = tangent {
         let n = HOST_TIE_DOFS;
         for a in 0..9 {
             for b in 0..9 {
-                let kab = k_drag * c(a) * c(b);
+                let kab = k * c(a) * c(b);
                 for i in 0..3 {
                     t[(3 * a + i) * n + 3 * b + i] += kab;
                 }
             }
         }
     }
-    k_drag * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
 }
 
 /// One tie of a node to a host element's material point.
