@@ -23,7 +23,7 @@ use cellmech_fem::element::truss::TrussSet;
 use cellmech_fem::linsolve::DenseSolver;
 use cellmech_fem::material::AxialLaw;
 use cellmech_fem::solve::{
-    Activation, IncrementReport, Motion, NodalLoad, Observer, Problem, Stabilization,
+    Activation, Damping, IncrementReport, Motion, NodalLoad, Observer, Problem, Stabilization,
     StabilizationReport, Step,
 };
 
@@ -355,4 +355,29 @@ fn a_step_whose_re_solve_fails_relaxes_at_its_final_load_into_the_equilibrium() 
     // The relaxation's dissipation is booked: the snap releases energy a static model can
     // only dissipate, of the order of the strain energy at the end.
     assert!(report.increment_dissipated > 0.0);
+}
+
+#[test]
+fn relative_damping_without_relative_motions_is_the_nodal_viscosity() {
+    // The truss has no tied fibres: `Damping::Relative` would damp nothing, so the step gets
+    // the nodal viscosity, and the snap-through is the same to the last bit.
+    let target = 2.0 * limit_point().1;
+    let run = |damping| {
+        let mut p = truss();
+        let mut path = Path::default();
+        let settings = Stabilization {
+            damping,
+            ..Stabilization::default()
+        };
+        p.run_step(&load_step(target, Some(settings)), &mut path)
+            .expect("the stabilised step passes the snap-through");
+        path.points
+    };
+    let nodal = run(Damping::Nodal);
+    let relative = run(Damping::Relative);
+    assert_eq!(nodal.len(), relative.len());
+    for (a, b) in nodal.iter().zip(&relative) {
+        assert_eq!((a.0, a.1), (b.0, b.1));
+        assert_eq!(a.2, b.2);
+    }
 }

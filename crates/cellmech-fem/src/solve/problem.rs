@@ -1,6 +1,6 @@
 //! The problem: terms, DOFs, assembler, linear solver and state, and the step driver.
 
-use super::control::{Convergence, Extrapolation, IterationMethod, StepControl};
+use super::control::{Convergence, Damping, Extrapolation, IterationMethod, StepControl};
 use super::error::FailureReason;
 use super::error::SolveError;
 use super::relax::{Relaxation, RelaxationStats};
@@ -389,9 +389,24 @@ impl Problem {
             f_end[load.dof] = load.value;
         }
         let control = &step.control;
-        self.stabilizer = control.stabilization.map(|s| Stabilizer::new(s, n));
         // A new stabiliser counts its epochs from 0 again: switch the old drag off first.
+        self.stabilizer = None;
         self.sync_drag();
+        self.stabilizer = control.stabilization.map(|mut s| {
+            // Relative damping needs terms with relative motions (tied filaments); a model
+            // without any (every tied family switched off) gets the nodal viscosity.
+            if s.damping == Damping::Relative {
+                let dof_map = &self.dof_map;
+                let any = self
+                    .terms
+                    .iter_mut()
+                    .fold(false, |any, t| t.set_drag(None, dof_map) || any);
+                if !any {
+                    s.damping = Damping::Nodal;
+                }
+            }
+            Stabilizer::new(s, n)
+        });
         let mut time = 0.0;
         let mut dt = control.initial_increment.min(control.max_increment);
         let mut increments = 0;
