@@ -89,7 +89,7 @@ fn the_default_foundation_modulus_is_the_cytoplasm_youngs_modulus() {
 }
 
 #[test]
-fn filament_drag_needs_filaments_on_the_foundation() {
+fn filament_drag_needs_filaments_on_the_foundation_and_is_their_default() {
     // The drag acts on the tie slips: with free MTs there is none, and the scenario is
     // refused before anything is solved, naming the key and the fix.
     let text = "title = \"drag\"\n[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n\
