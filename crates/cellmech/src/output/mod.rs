@@ -187,6 +187,7 @@ impl OutputWriter {
             "dissipated_step_nNum",
             "dissipated_fraction",
             "viscous_force_ratio",
+            "negative_pivots",
         ];
         let increments_csv = CurveWriter::create(&dir.join("increments.csv"), &increments_header)
             .map_err(|e| e.to_string())?;
@@ -430,6 +431,13 @@ impl Observer for OutputWriter {
             st.map_or(0.0, |s| s.step_dissipated),
             st.map_or(0.0, |s| s.dissipated_fraction),
             st.map_or(0.0, |s| s.viscous_force_ratio),
+            // The inertia of the increment's last factorised tangent (0 when Cholesky
+            // took it; NaN when unknown): a positive count means the state Newton converged
+            // to is not a stable equilibrium (a viscosity in that tangent hides some).
+            problem
+                .last_factor()
+                .and_then(|f| f.negative_pivots)
+                .map_or(f64::NAN, |n| n as f64),
         ];
         let result = self.increments_csv.push_row(&row);
         self.record(result);
