@@ -32,7 +32,7 @@ const ROUND_OFF: f64 = 1e-13;
 /// round-off of the coordinates: converged.
 pub(super) const COORDINATE_ROUND_OFF: f64 = 1e-13;
 
-pub(super) fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
+fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
     v.iter()
         .zip(mask)
         .filter(|(_, &m)| m == want)

@@ -691,7 +691,13 @@ impl Problem {
                 dissipated += term.drag_dissipation(&self.u, &self.dof_map);
                 term.add_drag_forces(&self.u, &self.dof_map, &mut forces);
             }
-            let drag = super::newton::norm_where(&forces, &self.prescribed, false);
+            let drag = forces
+                .iter()
+                .zip(&self.prescribed)
+                .filter(|(_, &held)| !held)
+                .map(|(f, _)| f * f)
+                .sum::<f64>()
+                .sqrt();
             force = (force * force + drag * drag).sqrt();
         }
         Some((dissipated, force))
