@@ -192,8 +192,9 @@ pub enum Damping {
     /// (a tied fibre node moving relative to its material point in the host: the drag of a
     /// viscous medium on a filament). Rigid motions and the continuum's own deformation are
     /// free; an instability that lives in the tied fibres (their buckling on the elastic
-    /// foundation) is damped where it happens. A model without such terms is not damped at
-    /// all, so this is for models with tied fibres.
+    /// foundation) is damped where it happens. Rotational DOFs keep the nodal viscosity. A
+    /// step whose terms define no relative motion (every tied family switched off) gets
+    /// [`Damping::Nodal`] instead: nothing would be damped otherwise.
     Relative,
 }
 

@@ -15,6 +15,12 @@
 //! A damped DOF whose diagonal is zero (a mechanism) gets the mean weight. Constrained
 //! (slave) and prescribed DOFs are not damped.
 //!
+//! With [`Damping::Relative`] the translations are not damped at the DOFs: the terms that
+//! define relative motions (elastic ties of filaments to a host continuum) add a drag
+//! `(c/Δt) m_s (g − g₀)` against each tied node's slip `g` since the increment's start
+//! ([`crate::term::Term::set_drag`], kept in sync by the problem through `epoch`), and
+//! only the rotations keep the force at the DOF. `c` is calibrated and adapted as below.
+//!
 //! With [`Activation::OnDifficulty`] the stabiliser sets its weights and calibrates `c` on
 //! the step's first increment as usual (on the undamped predictor the solve computes
 //! anyway) but keeps the viscosity off until one increment has failed
