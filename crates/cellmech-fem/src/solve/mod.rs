@@ -10,6 +10,7 @@ mod constrained;
 mod control;
 mod error;
 mod newton;
+mod norms;
 mod problem;
 mod reduced;
 mod relax;

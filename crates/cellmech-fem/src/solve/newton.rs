@@ -11,6 +11,7 @@ use super::control::{
     NEAR_EQUILIBRIUM,
 };
 use super::error::FailureReason;
+use super::norms::norm_where;
 use super::problem::{Observer, Problem};
 use super::reduced::solver_pattern;
 use super::report::IterationReport;
@@ -31,15 +32,6 @@ const ROUND_OFF: f64 = 1e-13;
 /// A correction this small relative to the model size (`Problem::set_length_scale`) is
 /// round-off of the coordinates: converged.
 pub(super) const COORDINATE_ROUND_OFF: f64 = 1e-13;
-
-fn norm_where(v: &[f64], mask: &[bool], want: bool) -> f64 {
-    v.iter()
-        .zip(mask)
-        .filter(|(_, &m)| m == want)
-        .map(|(x, _)| x * x)
-        .sum::<f64>()
-        .sqrt()
-}
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()

@@ -3,6 +3,7 @@
 use super::control::{Convergence, Damping, Extrapolation, IterationMethod, StepControl};
 use super::error::FailureReason;
 use super::error::SolveError;
+use super::norms::norm_where;
 use super::relax::{Relaxation, RelaxationStats};
 use super::report::{IncrementReport, IterationReport};
 use super::stabilize::{StabilizationReport, Stabilizer};
@@ -680,7 +681,7 @@ impl Problem {
     /// Energy the viscosity dissipated since the increment's start and the norm of its
     /// forces at the current state (nodal viscosity and the terms' drag, on the free DOFs);
     /// `None` without stabilisation.
-    fn viscous_dissipation_and_force(&mut self) -> Option<(f64, f64)> {
+    fn viscous_dissipation_and_force(&self) -> Option<(f64, f64)> {
         let st = self.stabilizer.as_ref()?;
         let mut dissipated = st.dissipation(&self.u);
         let mut force = st.force_norm(&self.u);
@@ -691,13 +692,7 @@ impl Problem {
                 dissipated += term.drag_dissipation(&self.u, &self.dof_map);
                 term.add_drag_forces(&self.u, &self.dof_map, &mut forces);
             }
-            let drag = forces
-                .iter()
-                .zip(&self.prescribed)
-                .filter(|(_, &held)| !held)
-                .map(|(f, _)| f * f)
-                .sum::<f64>()
-                .sqrt();
+            let drag = norm_where(&forces, &self.prescribed, false);
             force = (force * force + drag * drag).sqrt();
         }
         Some((dissipated, force))
