@@ -115,15 +115,13 @@ pub trait Term: Send + Sync {
         false
     }
 
-    /// Energy the drag of [`Term::set_drag`] dissipates from `drag.u_start` to `u`
-    /// (`Σ k_drag |Δ relative motion|²`, as the nodal viscosity's). Default: 0.
-    fn drag_dissipation(&self, _u: &[f64], _dof_map: &DofMap) -> f64 {
+    /// Adds the drag forces of [`Term::set_drag`] at `u` into `out` (global DOFs), for the
+    /// viscous-force check at the end of a step, and returns the energy the drag dissipates
+    /// from `drag.u_start` to `u` (`Σ k_drag |Δ relative motion|²`, as the nodal
+    /// viscosity's). Default: nothing, 0.
+    fn add_drag_forces(&self, _u: &[f64], _dof_map: &DofMap, _out: &mut [f64]) -> f64 {
         0.0
     }
-
-    /// Adds the drag forces of [`Term::set_drag`] at `u` into `out` (global DOFs), for the
-    /// viscous-force check at the end of a step. Default: nothing.
-    fn add_drag_forces(&self, _u: &[f64], _dof_map: &DofMap, _out: &mut [f64]) {}
 }
 
 /// The viscous drag of a stabilised increment, handed to [`Term::set_drag`].

@@ -160,12 +160,11 @@ fn a_tied_centrosome_completes_the_tension_test_and_changes_little() {
     );
     assert_eq!(tied.status, "completed");
     assert_eq!(tied.size.constrained_dofs, 3);
-    let force = |s: &cellmech::run::RunSummary| s.protocol.as_ref().unwrap().last.unwrap().force_nn;
     assert!(
-        (force(&tied) / force(&free) - 1.0).abs() < 0.01,
+        (last_force(&tied) / last_force(&free) - 1.0).abs() < 0.01,
         "tied {} nN vs free {} nN",
-        force(&tied),
-        force(&free)
+        last_force(&tied),
+        last_force(&free)
     );
 }
 
@@ -209,12 +208,11 @@ fn all_filaments_embedded_complete_the_tension_test_and_the_afs_follow_the_gel()
             + v(&all, "intermediate_filaments_in_compression"),
         60.0
     );
-    let force = |s: &cellmech::run::RunSummary| s.protocol.as_ref().unwrap().last.unwrap().force_nn;
     assert!(
-        force(&all) > 1.2 * force(&free),
+        last_force(&all) > 1.2 * last_force(&free),
         "all embedded {} nN vs free {} nN",
-        force(&all),
-        force(&free)
+        last_force(&all),
+        last_force(&free)
     );
     // Embedded AFs are stretched with the gel: they end far above the free AFs' load.
     assert!(
@@ -247,14 +245,13 @@ fn microtubules_on_an_elastic_foundation_complete_the_tension_test_and_carry_loa
         "{:?}",
         held.steps
     );
-    let force = |s: &cellmech::run::RunSummary| s.protocol.as_ref().unwrap().last.unwrap().force_nn;
     let v = |s: &cellmech::run::RunSummary, k: &str| s.final_values[k];
     assert!(v(&free, "microtubule_axial_force_max_nN") < 0.01);
     assert!(
-        force(&held) > 1.05 * force(&free),
+        last_force(&held) > 1.05 * last_force(&free),
         "foundation {} nN vs free {} nN",
-        force(&held),
-        force(&free)
+        last_force(&held),
+        last_force(&free)
     );
     // The gel stretches the MTs it holds: nN of tension in most of them.
     assert!(
@@ -301,12 +298,11 @@ fn microtubules_on_an_elastic_foundation_complete_the_compression_and_add_to_it(
     let free = compression("compression-free", "free", "nodal");
     let held = compression("compression-foundation", "foundation", "filament-drag");
     assert_eq!(held.status, "completed");
-    let force = |s: &cellmech::run::RunSummary| s.protocol.as_ref().unwrap().last.unwrap().force_nn;
     assert!(
-        force(&held) > 1.05 * force(&free),
+        last_force(&held) > 1.05 * last_force(&free),
         "foundation {} nN vs free {} nN",
-        force(&held),
-        force(&free)
+        last_force(&held),
+        last_force(&free)
     );
     // Every compression step ends at (or within the accepted 1e-3 of the force scale of)
     // an equilibrium, and the energy the drag took stays a small part of the step's (the
@@ -334,4 +330,9 @@ fn microtubules_on_an_elastic_foundation_complete_the_compression_and_add_to_it(
         "{}",
         v(&held, "microtubule_axial_force_min_nN")
     );
+}
+
+/// The force at the protocol's last reported point (nN).
+fn last_force(s: &cellmech::run::RunSummary) -> f64 {
+    s.protocol.as_ref().unwrap().last.unwrap().force_nn
 }

@@ -242,34 +242,26 @@ impl ElementSet for HostTieSet {
         self.enabled && !self.ties.is_empty()
     }
 
-    fn drag_dissipation_of_set(&self, u: &[f64], dof_map: &crate::dof::DofMap) -> f64 {
+    fn drag_forces_of_set(&self, u: &[f64], dof_map: &crate::dof::DofMap, out: &mut [f64]) -> f64 {
         let Some(drag) = &self.drag else {
             return 0.0;
         };
-        drag.iter()
-            .enumerate()
-            .map(|(e, (k_drag, g0))| {
-                let g = self.gap(e, u, dof_map);
-                k_drag * (0..3).map(|i| (g[i] - g0[i]).powi(2)).sum::<f64>()
-            })
-            .sum()
-    }
-
-    fn drag_forces_of_set(&self, u: &[f64], dof_map: &crate::dof::DofMap, out: &mut [f64]) {
-        let Some(drag) = &self.drag else {
-            return;
-        };
-        for (e, (k_drag, g0)) in drag.iter().enumerate() {
-            let t = &self.ties[e];
-            let g = self.gap(e, u, dof_map);
-            for i in 0..3 {
-                let f = k_drag * (g[i] - g0[i]);
-                out[dof_map.dof(t.nodes[0], i)] += f;
-                for a in 0..8 {
-                    out[dof_map.dof(t.nodes[a + 1], i)] -= t.weights[a] * f;
-                }
+        let mut dofs = [0usize; HOST_TIE_DOFS];
+        let (mut u_e, mut r) = ([0.0; HOST_TIE_DOFS], [0.0; HOST_TIE_DOFS]);
+        let mut dissipated = 0.0;
+        for (e, (k_drag, gap_start)) in drag.iter().enumerate() {
+            self.element_dofs_into(e, dof_map, &mut dofs);
+            for (value, &dof) in u_e.iter_mut().zip(&dofs) {
+                *value = u[dof];
+            }
+            r.fill(0.0);
+            let weights = &self.ties[e].weights;
+            dissipated += host_tie_drag(*k_drag, weights, gap_start, &u_e, &mut r, None);
+            for (force, &dof) in r.iter().zip(&dofs) {
+                out[dof] += force;
             }
         }
+        dissipated
     }
 
     fn curve_outputs(&self, u: &[f64], dof_map: &crate::dof::DofMap) -> Vec<(String, f64)> {

@@ -132,13 +132,10 @@ pub trait ElementSet: Send + Sync {
         false
     }
 
-    /// Energy dissipated by the drag ([`Term::drag_dissipation`]).
-    fn drag_dissipation_of_set(&self, _u: &[f64], _dof_map: &DofMap) -> f64 {
+    /// Drag forces into global DOFs, and the energy dissipated ([`Term::add_drag_forces`]).
+    fn drag_forces_of_set(&self, _u: &[f64], _dof_map: &DofMap, _out: &mut [f64]) -> f64 {
         0.0
     }
-
-    /// Drag forces into global DOFs ([`Term::add_drag_forces`]).
-    fn drag_forces_of_set(&self, _u: &[f64], _dof_map: &DofMap, _out: &mut [f64]) {}
 }
 
 impl<S: ElementSet> Term for S {
@@ -219,11 +216,7 @@ impl<S: ElementSet> Term for S {
         self.on_drag(drag, dof_map)
     }
 
-    fn drag_dissipation(&self, u: &[f64], dof_map: &DofMap) -> f64 {
-        self.drag_dissipation_of_set(u, dof_map)
-    }
-
-    fn add_drag_forces(&self, u: &[f64], dof_map: &DofMap, out: &mut [f64]) {
+    fn add_drag_forces(&self, u: &[f64], dof_map: &DofMap, out: &mut [f64]) -> f64 {
         self.drag_forces_of_set(u, dof_map, out)
     }
 }

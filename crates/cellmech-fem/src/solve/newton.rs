@@ -87,13 +87,7 @@ impl Problem {
         }
         // Iteration 0: linearise at the converged start state.
         self.assemble_full(true)?;
-        for d in 0..n {
-            self.work.rhs[d] = if self.prescribed[d] {
-                self.work.du_prescribed[d]
-            } else {
-                self.f_ext[d] - self.residual[d] - self.work.predictor[d]
-            };
-        }
+        self.set_first_rhs();
         let r0 = norm_where(&self.work.rhs, &self.prescribed, false);
         let mut scale_floor = r0.max(norm_where(&self.f_ext, &self.prescribed, false));
         match self.stabilizer_needs_calibration() {
@@ -602,13 +596,22 @@ impl Problem {
             // The drag lives in the terms: assemble again with it (the start may have
             // moved from the increment's start, so its forces are not zero either).
             self.assemble_full(true)?;
-            for d in 0..self.u.len() {
-                if !self.prescribed[d] {
-                    self.work.rhs[d] = self.f_ext[d] - self.residual[d] - self.work.predictor[d];
-                }
-            }
+            self.set_first_rhs();
         }
         self.factorize_and_solve()
+    }
+
+    /// The right-hand side of an increment's first solve: the prescribed DOFs' remaining
+    /// motion, and on the free DOFs the out-of-balance force less the prescribed motion's
+    /// predictor (assembled with it).
+    fn set_first_rhs(&mut self) {
+        for d in 0..self.u.len() {
+            self.work.rhs[d] = if self.prescribed[d] {
+                self.work.du_prescribed[d]
+            } else {
+                self.f_ext[d] - self.residual[d] - self.work.predictor[d]
+            };
+        }
     }
 
     /// Residual only at `u + s δ` (into `residual_trial`, with its magnitude and energy);

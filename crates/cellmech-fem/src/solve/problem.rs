@@ -689,8 +689,7 @@ impl Problem {
             // Once per increment: the allocation does not matter.
             let mut forces = vec![0.0; self.u.len()];
             for term in &self.terms {
-                dissipated += term.drag_dissipation(&self.u, &self.dof_map);
-                term.add_drag_forces(&self.u, &self.dof_map, &mut forces);
+                dissipated += term.add_drag_forces(&self.u, &self.dof_map, &mut forces);
             }
             let drag = norm_where(&forces, &self.prescribed, false);
             force = (force * force + drag * drag).sqrt();

@@ -233,11 +233,10 @@ impl Stabilizer {
     pub fn start_increment(&mut self, u: &[f64], dt: f64) {
         self.u_start.copy_from_slice(u);
         self.dt = dt;
-        self.rate = match self.factor {
+        self.set_rate(match self.factor {
             Some(c) if self.active => c / dt,
             _ => 0.0,
-        };
-        self.epoch += 1;
+        });
     }
 
     /// Adds the viscous forces at `u` to `residual` (internal forces).
