@@ -66,6 +66,11 @@ pub struct SystemSize {
     pub dofs: usize,
     /// Stored nonzeros of the tangent (lower triangle; after eliminating embedded DOFs).
     pub tangent_nonzeros: usize,
+    /// The factor of that tangent: exact nonzeros of L and flops of one factorisation
+    /// (what each Newton iteration's factorisation costs; absent for a solver that does
+    /// not report it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub factor: Option<cellmech_fem::linsolve::FactorSize>,
     /// DOFs eliminated by linear ties: embedded nodes (they follow their hosts) and hanging
     /// nodes of a locally refined mesh (they follow the coarse side).
     pub constrained_dofs: usize,
@@ -264,6 +269,7 @@ pub fn run_with_threads(
             elements: scenario.model.mesh.num_elements(),
             dofs: model.problem.dof_map().num_dofs(),
             tangent_nonzeros: model.problem.tangent_nonzeros(),
+            factor: model.problem.factor_size(),
             constrained_dofs: model.problem.num_constrained_dofs(),
             embedding: model.embedding.clone(),
             hanging_nodes: model.hanging_nodes,

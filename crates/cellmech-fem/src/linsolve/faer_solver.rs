@@ -621,6 +621,13 @@ impl LinearSolver for FaerSparseSolver {
         Some(self.stats)
     }
 
+    fn factor_size(&self) -> Option<super::FactorSize> {
+        self.analysis_info().map(|i| super::FactorSize {
+            nonzeros: i.nnz_l,
+            flops: i.factor_flops,
+        })
+    }
+
     fn solve_approximately_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
         if !matches!(self.numeric, Some(Numeric::Llt32)) {
             return self.solve_in_place(rhs);

@@ -78,4 +78,17 @@ pub trait LinearSolver: Send {
     fn mixed_precision_stats(&self) -> Option<MixedPrecisionStats> {
         None
     }
+    /// The size of the factor the last analysis planned, for a solver that knows it.
+    fn factor_size(&self) -> Option<FactorSize> {
+        None
+    }
+}
+
+/// How big a factorisation is: what one numeric factorisation costs in memory and work.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct FactorSize {
+    /// Exact structural nonzeros of L (diagonal included) for the fill-reducing ordering.
+    pub nonzeros: usize,
+    /// Floating-point operations of one numeric Cholesky, `Σ_j c_j²` over L's columns.
+    pub flops: f64,
 }

@@ -420,3 +420,39 @@ fn an_approximate_solve_skips_the_refinement_of_a_single_precision_factor_only()
         .expect("solve");
     assert_eq!(full, x64);
 }
+
+#[test]
+fn the_factor_size_is_the_fill_of_the_ordering_and_only_a_sparse_solver_reports_it() {
+    // A path graph in its natural order does not fill: L has the diagonal and one
+    // sub-diagonal, 2n - 1 entries.
+    let n = 40;
+    let edges: Vec<[usize; 2]> = (0..n - 1).map(|i| [i, i + 1]).collect();
+    let pattern = SparsityPattern::from_cliques(n, edges.iter().map(|e| &e[..]));
+    let mut sparse: Box<dyn LinearSolver> =
+        Box::new(FaerSparseSolver::new(1).with_ordering(FillOrdering::Natural));
+    assert_eq!(
+        sparse.factor_size(),
+        None,
+        "nothing planned before the analysis"
+    );
+    sparse.analyze(&pattern).expect("analyze");
+    let size = sparse
+        .factor_size()
+        .expect("a sparse solver reports its factor");
+    assert_eq!(size.nonzeros, 2 * n - 1);
+    // One numeric factorisation costs Σ c_j² over the stored columns: at least the exact
+    // columns' 4 (n - 1) + 1.
+    assert!(size.flops >= (4 * (n - 1) + 1) as f64, "{}", size.flops);
+    // On a 3-D grid the fill of nested dissection is what the analysis counted.
+    let m = hex_elasticity(6, 6, 6, 1.0, 0.3);
+    let mut grid = FaerSparseSolver::new(1);
+    grid.analyze(&m.pattern).expect("analyze");
+    let info = grid.analysis_info().expect("info").clone();
+    let size = LinearSolver::factor_size(&grid).expect("size");
+    assert_eq!(size.nonzeros, info.nnz_l);
+    assert!(size.nonzeros > m.pattern.nnz(), "a 3-D grid fills in");
+    assert_eq!(size.flops, info.factor_flops);
+    let mut dense: Box<dyn LinearSolver> = Box::new(DenseSolver::default());
+    dense.analyze(&pattern).expect("analyze");
+    assert_eq!(dense.factor_size(), None);
+}

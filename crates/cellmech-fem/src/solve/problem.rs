@@ -351,6 +351,12 @@ impl Problem {
         self.last_factor
     }
 
+    /// The size of the factor the linear solver planned for this problem's tangent (nonzeros
+    /// of L and flops of one factorisation), if the solver reports it.
+    pub fn factor_size(&self) -> Option<crate::linsolve::FactorSize> {
+        self.solver.factor_size()
+    }
+
     /// Time spent assembling, factorising and solving so far.
     pub fn timings(&self) -> Timings {
         Timings {
