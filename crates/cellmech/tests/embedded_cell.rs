@@ -278,11 +278,13 @@ fn microtubules_on_an_elastic_foundation_complete_the_tension_test_and_carry_loa
 /// from about a third of the compression on, and the steps end through the stabilisation's
 /// end-of-step re-solve from the damped state and its relaxation at the final load.
 /// Measured on the coarse cell (2026-12-06, 24 beams per MT): free 673.54 nN, foundation
-/// 749.32 nN at 50 % (+11.3 %; 749.61 nN with the nodal viscosity); 28 MTs in tension at 50 %
+/// 749.54 nN at 50 % (+11.3 %; 748.87 nN with the nodal viscosity); 28 MTs in tension at 50 %
 /// (the bulge stretches the MTs across the axis), the most compressed at the foundation's
-/// buckling load. The drag dissipated 3.1e-4 / 1.2e-3 of the 10–30 / 30–50 % steps' strain
-/// energy, where the nodal viscosity took 6.2 % / 5.0 % (mostly the gel's smooth motion
-/// under a boosted factor).
+/// buckling load. The drag dissipated 3.1e-4 / 1.05e-2 of the 10–30 / 30–50 % steps'
+/// strain energy, where the nodal viscosity took 6.0 % / 9.1 % (mostly the gel's smooth
+/// motion under a boosted factor). Until the rotation hold was released after the first
+/// loading step (below) the drag took 3.1e-4 / 1.2e-3 and the nodal viscosity 6.2 % / 5.0 %:
+/// the hold, pushing 3.7 nN into the nucleus, also steadied the path.
 #[test]
 fn microtubules_on_an_elastic_foundation_complete_the_compression_and_add_to_it() {
     let compression = |name: &str, coupling: &str, damping: &str| {
@@ -305,8 +307,8 @@ fn microtubules_on_an_elastic_foundation_complete_the_compression_and_add_to_it(
         last_force(&free)
     );
     // Every compression step ends at (or within the accepted 1e-3 of the force scale of)
-    // an equilibrium, and the energy the drag took stays a small part of the step's (the
-    // nodal viscosity took 5-6 %).
+    // an equilibrium, and the energy the drag took stays a small part of the step's: at
+    // most 2 %, where the nodal viscosity takes 6-9 % (measured 1.05 % with the drag).
     for st in held
         .steps
         .iter()
@@ -318,8 +320,23 @@ fn microtubules_on_an_elastic_foundation_complete_the_compression_and_add_to_it(
             "{}: {report:?}",
             st.name
         );
-        assert!(report.dissipated_fraction < 0.01, "{}: {report:?}", st.name);
+        assert!(report.dissipated_fraction < 0.02, "{}: {report:?}", st.name);
     }
+    // The rotation hold inside the nucleus is released once the plates hold the cell: the
+    // asymmetric cell drifts, and a hold kept to 50 % pushed 3.7 nN into one nucleus node
+    // on this mesh (1.6 nN on the default mesh, a column of strain 0.62 around it); only
+    // the first loading step's remains (measured 0.025 nN).
+    let support = held
+        .protocol
+        .as_ref()
+        .unwrap()
+        .support_reaction_max_nn
+        .unwrap();
+    eprintln!("foundation compression: largest support reaction {support} nN");
+    assert!(
+        support < 1e-4 * last_force(&held),
+        "supports carry {support} nN"
+    );
     let v = |s: &cellmech::run::RunSummary, k: &str| s.final_values[k];
     // The bulge stretches the held MTs across the axis: nN of tension in most of them,
     // while the compressed ones stay at the foundation's buckling load 2 sqrt(k EI).

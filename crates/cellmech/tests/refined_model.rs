@@ -119,6 +119,7 @@ fn model() -> (ModelSpec, usize) {
         supports: Vec::new(),
         shape_probes: Vec::new(),
         embedded: vec![EmbedSpec {
+            radius: 0.0,
             name: "bar".into(),
             node_set: "bar".into(),
             host_blocks: vec!["cube".into()],

@@ -88,6 +88,9 @@ pub enum EmbedError {
         /// The constraint error.
         source: ConstraintError,
     },
+    /// The radius of a ball embedding is negative or not finite.
+    #[error("expected a finite radius of 0 or more for the embedding's ball; found {0}")]
+    BadRadius(f64),
     /// The tolerance is invalid.
     #[error(transparent)]
     Locate(#[from] LocateError),
@@ -159,4 +162,138 @@ pub fn embed_translations(
         report.embedded.push(EmbeddedNode { node, host });
     }
     Ok(report)
+}
+
+/// Sample points per ball radius of [`embed_translations_over_ball`]: a lattice of spacing
+/// `radius / BALL_SAMPLES_PER_RADIUS`, offset by half a spacing so that it is symmetric
+/// about the centre (the mean of a linear field is then exactly its value at the centre).
+pub const BALL_SAMPLES_PER_RADIUS: usize = 6;
+
+/// Like [`embed_translations`], but each node follows the **mean displacement of the host
+/// material within a ball** of `radius` around it instead of the host's interpolation at
+/// its own point (a distributing coupling, as Abaqus's *COUPLING, DISTRIBUTING with
+/// uniform weights, translations only):
+///
+/// ```text
+/// u_s = (1/|B|) ∫_B u dV ≈ (1/Q) Σ_q Σ_a N_a(ξ_q) u_a
+/// ```
+///
+/// over the `Q` lattice points of the ball that lie in a host (points outside every host,
+/// e.g. beyond the body's surface, are left out: the mean is over the part of the ball
+/// inside the body). A force on the node is spread over the ball's material with the same
+/// weights, so a point load on a continuum (singular: its local strain grows without bound
+/// as the mesh is refined) becomes a load spread over a finite volume. `radius` = 0 is
+/// [`embed_translations`]. The node itself must lie in a host (reported in `embedded` with
+/// its own host) or it is `unhosted`.
+pub fn embed_translations_over_ball(
+    constraints: &mut LinearConstraints,
+    locator: &HostLocator,
+    dof_map: &DofMap,
+    coordinates: &[[f64; 3]],
+    nodes: &[usize],
+    radius: f64,
+    tolerance: f64,
+) -> Result<EmbedReport, EmbedError> {
+    if radius == 0.0 {
+        return embed_translations(constraints, locator, dof_map, coordinates, nodes, tolerance);
+    }
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(EmbedError::BadRadius(radius));
+    }
+    let num_nodes = coordinates.len().min(dof_map.num_nodes());
+    let translations = |node: usize| -> Result<[usize; 3], EmbedError> {
+        if node >= num_nodes {
+            return Err(EmbedError::UnknownNode { node, num_nodes });
+        }
+        let count = dof_map.count(node);
+        if count < 3 {
+            return Err(EmbedError::NoTranslations { node, count });
+        }
+        Ok(std::array::from_fn(|c| dof_map.dof(node, c)))
+    };
+    let lattice = ball_lattice(radius);
+    let mut report = EmbedReport::default();
+    let mut sorted = nodes.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    for node in sorted {
+        let slave = translations(node)?;
+        if locator.is_host_node(node) {
+            report.shared.push(node);
+            continue;
+        }
+        let centre = coordinates[node];
+        let own = match locator.locate(centre, tolerance) {
+            Ok(h) => h,
+            Err(e @ LocateError::Outside { .. }) => {
+                report.unhosted.push((node, e));
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let weights = ball_weights_on_lattice(locator, centre, &lattice);
+        let mut masters = Vec::with_capacity(weights.len());
+        for &(h, w) in &weights {
+            masters.push((translations(h)?, w));
+        }
+        if masters.is_empty() {
+            masters.extend(
+                own.nodes
+                    .iter()
+                    .zip(own.weights())
+                    .map(|(&h, w)| translations(h).map(|d| (d, w)))
+                    .collect::<Result<Vec<_>, _>>()?,
+            );
+        }
+        for c in 0..3 {
+            let row: Vec<(usize, f64)> = masters.iter().map(|(d, w)| (d[c], *w)).collect();
+            constraints
+                .add_resolved(slave[c], &row)
+                .map_err(|source| EmbedError::Constraint { node, source })?;
+        }
+        report.max_overshoot = report.max_overshoot.max(own.overshoot);
+        report.embedded.push(EmbeddedNode { node, host: own });
+    }
+    Ok(report)
+}
+
+/// The offsets of the sample lattice of a ball of `radius` (see
+/// [`BALL_SAMPLES_PER_RADIUS`]).
+fn ball_lattice(radius: f64) -> Vec<[f64; 3]> {
+    let n = BALL_SAMPLES_PER_RADIUS as i64;
+    let h = radius / BALL_SAMPLES_PER_RADIUS as f64;
+    (-n..n)
+        .flat_map(|i| (-n..n).flat_map(move |j| (-n..n).map(move |k| [i, j, k])))
+        .map(|ijk| ijk.map(|i| (i as f64 + 0.5) * h))
+        .filter(|p| p.iter().map(|x| x * x).sum::<f64>() <= radius * radius)
+        .collect()
+}
+
+fn ball_weights_on_lattice(
+    locator: &HostLocator,
+    centre: [f64; 3],
+    lattice: &[[f64; 3]],
+) -> Vec<(usize, f64)> {
+    // Σ_q N_a(ξ_q) per host node over the samples inside a host, then / Q.
+    let mut weights: std::collections::BTreeMap<usize, f64> = Default::default();
+    let mut inside = 0usize;
+    for offset in lattice {
+        let point = std::array::from_fn(|c| centre[c] + offset[c]);
+        let Ok(host) = locator.locate(point, 0.0) else {
+            continue;
+        };
+        inside += 1;
+        for (&h, w) in host.nodes.iter().zip(host.weights()) {
+            *weights.entry(h).or_default() += w;
+        }
+    }
+    let q = inside.max(1) as f64;
+    weights.into_iter().map(|(h, w)| (h, w / q)).collect()
+}
+
+/// The host nodes and weights of the mean over the ball of `radius` around `centre`, the
+/// weights [`embed_translations_over_ball`] ties a node with (empty when no sample lies in
+/// a host). Use it to move a point with the material the way a ball-tied node moves.
+pub fn ball_weights(locator: &HostLocator, centre: [f64; 3], radius: f64) -> Vec<(usize, f64)> {
+    ball_weights_on_lattice(locator, centre, &ball_lattice(radius))
 }

@@ -17,7 +17,7 @@ pub use spec::{
     ShapeProbeSpec, StepSpec,
 };
 
-use cellmech_fem::constraint::embed::embed_translations;
+use cellmech_fem::constraint::embed::embed_translations_over_ball;
 use cellmech_fem::constraint::hanging::{tie_hanging_nodes, HangingTieError};
 use cellmech_fem::constraint::LinearConstraints;
 use cellmech_fem::continuum::ContinuumBlock;
@@ -323,12 +323,13 @@ fn constraints(
             message,
         };
         let (locator, nodes) = embedding_hosts(mesh, spec, &used).map_err(fail)?;
-        let report = embed_translations(
+        let report = embed_translations_over_ball(
             &mut constraints,
             &locator,
             dof_map,
             &mesh.nodes,
             &nodes,
+            spec.radius,
             spec.tolerance,
         )
         .map_err(|e| fail(e.to_string()))?;

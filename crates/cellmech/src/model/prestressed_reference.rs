@@ -30,6 +30,7 @@
 //! iteration on the coarse cell), and nodes prescribed along it make the elements at the
 //! FAs columns between held points that buckle at 0.03 nN (`docs/design.md`).
 
+use cellmech_fem::constraint::embed::ball_weights;
 use cellmech_fem::mesh::locate::HostLocator;
 
 use super::{BuildError, ModelSpec};
@@ -147,11 +148,29 @@ fn carried_positions(
     }
     let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
     let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
+    // Nodes the model ties over a ball follow the ball's mean, not their point.
+    let ball_radius = |n: usize| {
+        model
+            .embedded
+            .iter()
+            .filter(|e| e.foundation_modulus.is_none() && e.radius > 0.0)
+            .find(|e| {
+                mesh.node_sets
+                    .get(&e.node_set)
+                    .is_some_and(|s| s.contains(&n))
+            })
+            .map(|e| e.radius)
+    };
     // Each node's host nodes and weights (itself with weight 1 for a continuum node).
     let mut hosts: Vec<(usize, Vec<(usize, f64)>)> = Vec::with_capacity(nodes.len());
     for &n in &nodes {
         if locator.is_host_node(n) {
             hosts.push((n, vec![(n, 1.0)]));
+        } else if let Some(weights) = ball_radius(n)
+            .map(|r| ball_weights(&locator, mesh.nodes[n], r))
+            .filter(|w| !w.is_empty())
+        {
+            hosts.push((n, weights));
         } else {
             let host = locator
                 .locate(mesh.nodes[n], spec.tolerance)

@@ -63,6 +63,10 @@ pub struct EmbedSpec {
     /// `None`: exact embedding. `Some(k)`: elastic ties with foundation modulus `k`
     /// (nN/µm², force per length of fibre per µm of slip).
     pub foundation_modulus: Option<f64>,
+    /// Radius (µm) of the ball of host material whose mean displacement an exactly
+    /// embedded node follows (a distributing coupling: a load on the node spreads over the
+    /// ball); 0 ties the node at its point ([`cellmech_fem::constraint::embed`]).
+    pub radius: f64,
 }
 
 /// A node set whose shape along a test axis is reported per increment.

@@ -71,6 +71,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         shared::MICROTUBULES_FOUNDATION_MODULUS,
         shared::MICROTUBULES_EMBEDDED_NODES,
         p("microtubules.centrosome", K::Choice(&["free", "tied"]), D::Word("free"), ANY, "centrosome node: free, or tied to the cytoplasm where it sits", "choice ([adherent cell](adherent-cell.md#coupling))"),
+        shared::MICROTUBULES_CENTROSOME_RADIUS,
         p("microtubules.stress_free", K::Choice(&["unstressed-cell", "prestressed-cell"]), D::Word("unstressed-cell"), ANY, "where the MTs are stress-free: in the unstressed cell (the mesh) or in the prestressed cell (their stress-free shape is the mesh shape carried by the prestress's contraction of the gel, recorded in a first pass without them)", "choice ([adherent cell](adherent-cell.md#coupling): with the elastic cortex the first pass, the cell without MTs, does not reach a prestressed equilibrium, and the analysis fails)"),
         shared::SOLVER_STABILIZATION,
         shared::SOLVER_DAMPING,

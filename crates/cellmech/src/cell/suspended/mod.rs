@@ -546,6 +546,9 @@ pub struct Coupling {
     pub embedded_nodes: EmbeddedNodes,
     /// The centrosome node follows the cytoplasm it lies in.
     pub centrosome_tied: bool,
+    /// With `centrosome_tied`: the radius (µm) of the ball of gel whose mean displacement
+    /// the centrosome follows (`microtubules.centrosome_radius`; 0: the point it sits at).
+    pub centrosome_radius: f64,
     /// The MTs are stress-free in the prestressed cell (`microtubules.stress_free =
     /// "prestressed-cell"`) instead of in the mesh: see
     /// [`crate::model::prestressed_reference`].
@@ -603,7 +606,10 @@ impl Coupling {
             }));
         }
         if self.centrosome_tied {
-            out.push(spec("centrosome"));
+            out.push(crate::model::EmbedSpec {
+                radius: self.centrosome_radius,
+                ..spec("centrosome")
+            });
         }
         out
     }
@@ -617,6 +623,7 @@ fn continuum_embedding(name: &str) -> crate::model::EmbedSpec {
         host_blocks: vec!["cytoplasm".into(), "nucleus".into()],
         tolerance: EMBED_TOLERANCE,
         foundation_modulus: None,
+        radius: 0.0,
     }
 }
 

@@ -200,6 +200,15 @@ pub(crate) const MICROTUBULES_CENTROSOME: ParamDef = p(
     "centrosome node: free, or tied to the cytoplasm where it sits",
     "choice (spec: \"The hybrid model idea\")",
 );
+/// `microtubules.centrosome_radius` (shared by the cell models).
+pub(crate) const MICROTUBULES_CENTROSOME_RADIUS: ParamDef = p(
+    "microtubules.centrosome_radius",
+    K::Quantity(Length),
+    D::Number(1.0),
+    Bounds::NON_NEGATIVE,
+    "with `centrosome = \"tied\"`: the centrosome follows the mean displacement of the gel within this radius of it, and the MTs' pull on it spreads over that ball (a distributing coupling); 0 ties it at its point, where the pull is a point load on the gel (its local strain grows as the mesh or the MTs are refined)",
+    "choice, measured: a centrosome with its pericentriolar material is of the order of 1 µm across; with MTs on the foundation the nucleus strain beside it is then independent of the MT discretisation, where a point tie stalls the tension test ([suspended cell validation](suspended-cell-validation.md#the-centrosomes-pull-on-the-nucleus-2026-12-06))",
+);
 /// `microtubules.stress_free` (the suspended cell; the adherent cell has no first pass yet).
 pub(crate) const MICROTUBULES_STRESS_FREE: ParamDef = p(
     "microtubules.stress_free",
@@ -463,6 +472,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         MICROTUBULES_FOUNDATION_MODULUS,
         MICROTUBULES_EMBEDDED_NODES,
         MICROTUBULES_CENTROSOME,
+        MICROTUBULES_CENTROSOME_RADIUS,
         MICROTUBULES_STRESS_FREE,
         SOLVER_STABILIZATION,
         SOLVER_DAMPING,
@@ -677,6 +687,7 @@ pub fn coupling_from_values(v: &ParamValues) -> super::Coupling {
             _ => super::EmbeddedNodes::Alternate,
         },
         centrosome_tied: v.word("microtubules.centrosome") == "tied",
+        centrosome_radius: v.number("microtubules.centrosome_radius"),
         microtubules_prestressed: v.word("microtubules.stress_free") == "prestressed-cell",
     }
 }
