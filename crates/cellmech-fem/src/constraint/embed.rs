@@ -118,50 +118,15 @@ pub fn embed_translations(
     nodes: &[usize],
     tolerance: f64,
 ) -> Result<EmbedReport, EmbedError> {
-    let num_nodes = coordinates.len().min(dof_map.num_nodes());
-    let translations = |node: usize| -> Result<[usize; 3], EmbedError> {
-        if node >= num_nodes {
-            return Err(EmbedError::UnknownNode { node, num_nodes });
-        }
-        let count = dof_map.count(node);
-        if count < 3 {
-            return Err(EmbedError::NoTranslations { node, count });
-        }
-        Ok(std::array::from_fn(|c| dof_map.dof(node, c)))
-    };
-    let mut report = EmbedReport::default();
-    let mut sorted = nodes.to_vec();
-    sorted.sort_unstable();
-    sorted.dedup();
-    for node in sorted {
-        let slave = translations(node)?;
-        if locator.is_host_node(node) {
-            report.shared.push(node);
-            continue;
-        }
-        let host = match locator.locate(coordinates[node], tolerance) {
-            Ok(h) => h,
-            Err(e @ LocateError::Outside { .. }) => {
-                report.unhosted.push((node, e));
-                continue;
-            }
-            Err(e) => return Err(e.into()),
-        };
-        let weights = host.weights();
-        let mut host_dofs = [[0usize; 3]; 8];
-        for (a, &h) in host.nodes.iter().enumerate() {
-            host_dofs[a] = translations(h)?;
-        }
-        for c in 0..3 {
-            let masters: [(usize, f64); 8] = std::array::from_fn(|a| (host_dofs[a][c], weights[a]));
-            constraints
-                .add_resolved(slave[c], &masters)
-                .map_err(|source| EmbedError::Constraint { node, source })?;
-        }
-        report.max_overshoot = report.max_overshoot.max(host.overshoot);
-        report.embedded.push(EmbeddedNode { node, host });
-    }
-    Ok(report)
+    embed_translations_over_ball(
+        constraints,
+        locator,
+        dof_map,
+        coordinates,
+        nodes,
+        0.0,
+        tolerance,
+    )
 }
 
 /// Sample points per ball radius of [`embed_translations_over_ball`]: a lattice of spacing
@@ -194,67 +159,29 @@ pub fn embed_translations_over_ball(
     radius: f64,
     tolerance: f64,
 ) -> Result<EmbedReport, EmbedError> {
-    if radius == 0.0 {
-        return embed_translations(constraints, locator, dof_map, coordinates, nodes, tolerance);
-    }
-    if !(radius.is_finite() && radius > 0.0) {
+    if !(radius.is_finite() && radius >= 0.0) {
         return Err(EmbedError::BadRadius(radius));
     }
-    let num_nodes = coordinates.len().min(dof_map.num_nodes());
-    let translations = |node: usize| -> Result<[usize; 3], EmbedError> {
-        if node >= num_nodes {
-            return Err(EmbedError::UnknownNode { node, num_nodes });
-        }
-        let count = dof_map.count(node);
-        if count < 3 {
-            return Err(EmbedError::NoTranslations { node, count });
-        }
-        Ok(std::array::from_fn(|c| dof_map.dof(node, c)))
-    };
-    let lattice = ball_lattice(radius);
-    let mut report = EmbedReport::default();
-    let mut sorted = nodes.to_vec();
-    sorted.sort_unstable();
-    sorted.dedup();
-    for node in sorted {
-        let slave = translations(node)?;
-        if locator.is_host_node(node) {
-            report.shared.push(node);
-            continue;
-        }
-        let centre = coordinates[node];
-        let own = match locator.locate(centre, tolerance) {
-            Ok(h) => h,
-            Err(e @ LocateError::Outside { .. }) => {
-                report.unhosted.push((node, e));
-                continue;
+    let lattice = (radius > 0.0).then(|| ball_lattice(radius));
+    embed_with(
+        constraints,
+        locator,
+        dof_map,
+        coordinates,
+        nodes,
+        tolerance,
+        |centre, host| {
+            let ball = lattice
+                .as_ref()
+                .map(|lattice| ball_weights_on_lattice(locator, centre, lattice))
+                .unwrap_or_default();
+            if ball.is_empty() {
+                point_weights(host)
+            } else {
+                ball
             }
-            Err(e) => return Err(e.into()),
-        };
-        let weights = ball_weights_on_lattice(locator, centre, &lattice);
-        let mut masters = Vec::with_capacity(weights.len());
-        for &(h, w) in &weights {
-            masters.push((translations(h)?, w));
-        }
-        if masters.is_empty() {
-            masters.extend(
-                own.nodes
-                    .iter()
-                    .zip(own.weights())
-                    .map(|(&h, w)| translations(h).map(|d| (d, w)))
-                    .collect::<Result<Vec<_>, _>>()?,
-            );
-        }
-        for c in 0..3 {
-            let row: Vec<(usize, f64)> = masters.iter().map(|(d, w)| (d[c], *w)).collect();
-            constraints
-                .add_resolved(slave[c], &row)
-                .map_err(|source| EmbedError::Constraint { node, source })?;
-        }
-        report.max_overshoot = report.max_overshoot.max(own.overshoot);
-        report.embedded.push(EmbeddedNode { node, host: own });
-    }
-    Ok(report)
+        },
+    )
 }
 
 /// The offsets of the sample lattice of a ball of `radius` (see
@@ -296,4 +223,66 @@ fn ball_weights_on_lattice(
 /// a host). Use it to move a point with the material the way a ball-tied node moves.
 pub fn ball_weights(locator: &HostLocator, centre: [f64; 3], radius: f64) -> Vec<(usize, f64)> {
     ball_weights_on_lattice(locator, centre, &ball_lattice(radius))
+}
+
+/// The host interpolation at the point itself: `(node, N_a(ξ))`.
+fn point_weights(host: &HostLocation) -> Vec<(usize, f64)> {
+    host.nodes.iter().copied().zip(host.weights()).collect()
+}
+
+/// Ties the translations of each node of `nodes` to `Σ w_a u_a` over the host nodes and
+/// weights `weights(point, host of the point)` gives (see [`embed_translations`] for the
+/// rules on shared, unhosted and duplicate nodes).
+fn embed_with(
+    constraints: &mut LinearConstraints,
+    locator: &HostLocator,
+    dof_map: &DofMap,
+    coordinates: &[[f64; 3]],
+    nodes: &[usize],
+    tolerance: f64,
+    weights: impl Fn([f64; 3], &HostLocation) -> Vec<(usize, f64)>,
+) -> Result<EmbedReport, EmbedError> {
+    let num_nodes = coordinates.len().min(dof_map.num_nodes());
+    let translations = |node: usize| -> Result<[usize; 3], EmbedError> {
+        if node >= num_nodes {
+            return Err(EmbedError::UnknownNode { node, num_nodes });
+        }
+        let count = dof_map.count(node);
+        if count < 3 {
+            return Err(EmbedError::NoTranslations { node, count });
+        }
+        Ok(std::array::from_fn(|c| dof_map.dof(node, c)))
+    };
+    let mut report = EmbedReport::default();
+    let mut sorted = nodes.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    for node in sorted {
+        let slave = translations(node)?;
+        if locator.is_host_node(node) {
+            report.shared.push(node);
+            continue;
+        }
+        let host = match locator.locate(coordinates[node], tolerance) {
+            Ok(h) => h,
+            Err(e @ LocateError::Outside { .. }) => {
+                report.unhosted.push((node, e));
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let mut masters = Vec::new();
+        for (h, w) in weights(coordinates[node], &host) {
+            masters.push((translations(h)?, w));
+        }
+        for c in 0..3 {
+            let row: Vec<(usize, f64)> = masters.iter().map(|(d, w)| (d[c], *w)).collect();
+            constraints
+                .add_resolved(slave[c], &row)
+                .map_err(|source| EmbedError::Constraint { node, source })?;
+        }
+        report.max_overshoot = report.max_overshoot.max(host.overshoot);
+        report.embedded.push(EmbeddedNode { node, host });
+    }
+    Ok(report)
 }
