@@ -134,6 +134,10 @@ pub fn embed_translations(
 /// about the centre (the mean of a linear field is then exactly its value at the centre).
 pub const BALL_SAMPLES_PER_RADIUS: usize = 6;
 
+/// How far outside a host (in ξ) a ball's sample point is still taken to lie in it: round-off
+/// only (the hosts are a conforming mesh; points beyond the body's surface stay out).
+const SAMPLE_TOLERANCE: f64 = 1e-9;
+
 /// Like [`embed_translations`], but each node follows the **mean displacement of the host
 /// material within a ball** of `radius` around it instead of the host's interpolation at
 /// its own point (a distributing coupling, as Abaqus's *COUPLING, DISTRIBUTING with
@@ -206,7 +210,8 @@ fn ball_weights_on_lattice(
     let mut inside = 0usize;
     for offset in lattice {
         let point = std::array::from_fn(|c| centre[c] + offset[c]);
-        let Ok(host) = locator.locate(point, 0.0) else {
+        // A sample on a face between two hosts must not be lost to round-off in ξ.
+        let Ok(host) = locator.locate(point, SAMPLE_TOLERANCE) else {
             continue;
         };
         inside += 1;
