@@ -113,15 +113,15 @@ impl MicroplateCompression {
         let steps = &mut cell.model.steps;
         let mut previous = 0.0;
         let mut targets = Vec::new();
-        for e in list {
-            let index = steps.len();
+        for (k, e) in list.iter().enumerate() {
+            targets.push((steps.len(), *e));
             let mut step = test.step(
                 &format!("compress-{:.0}", 100.0 * e),
                 false,
                 vec![test.motion(&test.moving, -(e - previous) * d, None)],
             );
             step.control.extrapolation = self.extrapolation;
-            if !targets.is_empty() {
+            if k > 0 {
                 // The z-hold only stops the rotation about the axis that two point contacts
                 // leave free at first contact. After the first loading step each plate has
                 // bonded a disc of the surface, which holds that rotation, and the hold,
@@ -137,7 +137,6 @@ impl MicroplateCompression {
                 step.control.convergence.method = IterationMethod::bfgs();
             }
             steps.push(step);
-            targets.push((index, *e));
             previous = *e;
         }
         Ok(ProtocolPlan::MicroplateCompression {
