@@ -53,6 +53,15 @@ impl DofMap {
         self.first[node] + component
     }
 
+    /// The rotational DOFs, in increasing order: components 3..6 of every node that
+    /// carries six (a beam node's rotation vector follows its translations).
+    pub fn rotation_dofs(&self) -> Vec<usize> {
+        (0..self.num_nodes())
+            .filter(|&node| self.count(node) == 6)
+            .flat_map(|node| (3..6).map(move |c| self.first[node] + c))
+            .collect()
+    }
+
     /// The node that owns global DOF `dof` and its component.
     pub fn node_of(&self, dof: usize) -> (usize, usize) {
         let node = self.first.partition_point(|&f| f <= dof) - 1;
@@ -73,5 +82,7 @@ mod tests {
         assert_eq!(map.node_of(8), (1, 5));
         assert_eq!(map.node_of(9), (2, 0));
         assert_eq!(map.node_of(0), (0, 0));
+        assert_eq!(map.rotation_dofs(), vec![6, 7, 8]);
+        assert!(DofMap::translational(4).rotation_dofs().is_empty());
     }
 }

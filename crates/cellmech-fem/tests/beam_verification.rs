@@ -402,3 +402,83 @@ fn beam_microtubule_buckles_at_the_euler_load_and_newton_converges_on_piconewton
         "{stats:?}"
     );
 }
+
+/// Counts a step's iterations and cut-backs.
+#[derive(Default)]
+struct Counts {
+    iterations: usize,
+    cutbacks: usize,
+}
+
+impl cellmech_fem::solve::Observer for Counts {
+    fn on_iteration(&mut self, _report: &cellmech_fem::solve::IterationReport) {
+        self.iterations += 1;
+    }
+    fn on_cutback(
+        &mut self,
+        _step_time: f64,
+        _increment: f64,
+        _reason: &cellmech_fem::solve::FailureReason,
+    ) {
+        self.cutbacks += 1;
+    }
+}
+
+/// A cantilever rolled up by an end moment M = φ·EI/L, applied as one step, bends into a
+/// circular arc of radius L/φ (pure bending: the corotational element's nodes lie on it
+/// exactly). Returns (tip error / L, iterations, cut-backs, shortened corrections).
+fn roll_up(max_rotation_step: f64) -> (f64, usize, usize, usize) {
+    let (n, length, ei) = (24, 2.0, 3.0);
+    let phi = 1.5 * PI;
+    let (coords, pairs) = straight(n, length);
+    let mut problem = model(&coords, &pairs, section(ei, length));
+    let mut step = Step::new("roll up");
+    hold(&mut step, 0, &[0, 1, 2, 3, 4, 5]);
+    for node in 1..=n {
+        hold(&mut step, node, &[2, 3, 4]); // planar problem in x–y
+    }
+    step.loads = vec![NodalLoad {
+        dof: 6 * n + 5,
+        value: phi * ei / length,
+    }];
+    step.control = control(1.0);
+    step.control.convergence.max_rotation_step = max_rotation_step;
+    let mut counts = Counts::default();
+    problem.run_step(&step, &mut counts).unwrap();
+    let rho = length / phi;
+    let exact = [rho * phi.sin() - length, rho * (1.0 - phi.cos())];
+    let u = problem.u();
+    let error = ((u[6 * n] - exact[0]).powi(2) + (u[6 * n + 1] - exact[1]).powi(2)).sqrt();
+    assert!(
+        (u[6 * n + 5] - phi).abs() < 1e-6,
+        "tip rotation {} against {phi}",
+        u[6 * n + 5]
+    );
+    (
+        error / length,
+        counts.iterations,
+        counts.cutbacks,
+        problem.timings().rotation_limited_steps,
+    )
+}
+
+/// The rotations' trust region changes Newton's path, not the equilibrium it converges to:
+/// the 270° arc is reached with and without it, the tip within 1e-6 L of the exact one, and with it
+/// the corrections were shortened (so the bound acted on this problem).
+#[test]
+fn a_trust_region_on_the_rotations_shortens_newton_steps_and_keeps_the_equilibrium() {
+    let (error, iterations, cutbacks, shortened) = roll_up(0.5);
+    eprintln!(
+        "trust region 0.5 rad: tip error {error:.2e} L, {iterations} iterations, \
+         {cutbacks} cut-backs, {shortened} shortened corrections"
+    );
+    assert!(error < 1e-6, "tip {error} L off the arc");
+    assert!(shortened > 0, "the trust region never acted");
+    let (free_error, iterations, cutbacks, shortened) = roll_up(0.0);
+    eprintln!(
+        "no trust region: tip error {free_error:.2e} L, {iterations} iterations, \
+         {cutbacks} cut-backs, {shortened} shortened corrections"
+    );
+    assert!(free_error < 1e-6, "tip {free_error} L off the arc");
+    assert_eq!(shortened, 0);
+}

@@ -41,6 +41,14 @@ pub struct Convergence {
     /// that changed the active set, a new factorisation. The convergence criteria are
     /// unchanged, so the accepted states meet the same tolerances.
     pub chord_near_convergence: bool,
+    /// Trust region of the rotational DOFs (rad; 0: none). A correction after the
+    /// increment's first whose largest nodal-rotation component exceeds this is shortened
+    /// along its own direction until it does not, before the line search. A beam node's
+    /// rotation enters its kinematics through exp(θ̂), whose linearisation is good only for
+    /// increments well below a radian: where filaments tied to the gel snap through, Newton
+    /// otherwise proposed rotation corrections of 10-900 rad, and the increment failed
+    /// (measured in docs/performance.md, "A trust region on the rotations").
+    pub max_rotation_step: f64,
 }
 
 /// Newton tells the terms they are near equilibrium ([`crate::term::Term::set_near_equilibrium`])
@@ -97,6 +105,7 @@ impl Default for Convergence {
             method: IterationMethod::Newton,
             relaxation: true,
             chord_near_convergence: true,
+            max_rotation_step: 0.0,
         }
     }
 }

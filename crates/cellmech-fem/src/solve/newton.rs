@@ -656,9 +656,29 @@ impl Problem {
             .sum()
     }
 
+    /// The longest step along δ that keeps every rotational DOF's change within
+    /// `max_rotation_step` (1 when that holds for the full step or the bound is off).
+    fn rotation_step_limit(&mut self, max_rotation_step: f64) -> f64 {
+        if max_rotation_step <= 0.0 {
+            return 1.0;
+        }
+        let largest = self
+            .rotation_dofs
+            .iter()
+            .fold(0.0f64, |m, &d| m.max(self.work.delta[d].abs()));
+        if largest > max_rotation_step {
+            self.timings.rotation_limited_steps += 1;
+            max_rotation_step / largest
+        } else {
+            1.0
+        }
+    }
+
     /// Chooses the step length along δ, moves `u` there and assembles residual and tangent.
-    /// Full step unless it inverts an element (then halve) or the projection g(s) = δ·R(u+sδ)
-    /// stays above `threshold·g(0)` (then secant steps on g, keeping the best |g|).
+    /// The full step, or the longest the rotations' trust region allows
+    /// ([`Convergence::max_rotation_step`]), unless it inverts an element (then halve) or the
+    /// projection g(s) = δ·R(u+sδ) stays above `threshold·g(0)` (then secant steps on g,
+    /// keeping the best |g|, never beyond the first step).
     fn line_search(
         &mut self,
         conv: &Convergence,
@@ -666,11 +686,12 @@ impl Problem {
         relax: Option<f64>,
     ) -> Result<f64, FailureReason> {
         let g0 = self.projection(&self.residual);
-        let mut s = 1.0;
+        let longest = self.rotation_step_limit(conv.max_rotation_step);
+        let mut s = longest;
         let mut g1 = loop {
             match self.trial_projection(s) {
                 Ok(g) => break g,
-                Err(e) if s > 1.0 / 32.0 => {
+                Err(e) if s > longest / 32.0 => {
                     let _ = e;
                     s *= 0.5;
                 }
@@ -688,7 +709,7 @@ impl Problem {
                 if denom == 0.0 {
                     break;
                 }
-                let s_new = (s - g1 * (s - s_prev) / denom).clamp(0.1 * s, 1.0);
+                let s_new = (s - g1 * (s - s_prev) / denom).clamp(0.1 * s, longest);
                 s_prev = s;
                 g_prev = g1;
                 s = s_new;

@@ -69,6 +69,9 @@ pub struct Timings {
     /// Newton corrections solved with an earlier factorisation near convergence (chord
     /// steps, [`crate::solve::Convergence::chord_near_convergence`]).
     pub chord_steps: usize,
+    /// Corrections shortened by the rotations' trust region
+    /// ([`crate::solve::Convergence::max_rotation_step`]).
+    pub rotation_limited_steps: usize,
     /// The relaxation blocks' local solves (nonlinear elimination): count, iterations,
     /// undone solves and time.
     pub relaxation: RelaxationStats,
@@ -114,6 +117,8 @@ pub struct Problem {
     pub(super) relaxation: Option<Relaxation>,
     /// The stabiliser epoch the terms' drag was last set from (`None`: drag off).
     pub(super) drag_epoch: Option<u64>,
+    /// The rotational DOFs ([`DofMap::rotation_dofs`]), for the rotations' trust region.
+    pub(super) rotation_dofs: Vec<usize>,
 }
 
 /// Receives the solver's events: CSV rows, VTU frames, progress bars and the convergence
@@ -218,6 +223,7 @@ impl Problem {
         pool.install(|| solver.analyze(pattern))?;
         let n = dof_map.num_dofs();
         let nnz = pattern.nnz();
+        let rotation_dofs = dof_map.rotation_dofs();
         Ok(Problem {
             pool,
             dof_map,
@@ -260,6 +266,7 @@ impl Problem {
             stabilizer: None,
             relaxation: None,
             drag_epoch: None,
+            rotation_dofs,
         })
     }
 
@@ -565,11 +572,19 @@ impl Problem {
             match outcome {
                 Ok(mut iterations) => {
                     let final_increment = t >= 1.0 - 1e-12;
+                    // The end's re-solve without viscosity, and the relaxation towards it,
+                    // take full Newton, as a failed quasi-Newton increment's retry does: the
+                    // damped state is close, but the undamped problem there is the hardest
+                    // of the step.
                     let stabilization = self.finish_stabilized_increment(
                         final_increment,
                         &target_u,
                         &target_f,
-                        attempt,
+                        if final_increment {
+                            &newton_control
+                        } else {
+                            attempt
+                        },
                         observer,
                         &mut iterations,
                     );

@@ -66,6 +66,9 @@ pub struct StepSplit {
     pub relaxation_s: f64,
     /// Extra Newton rounds started by contact status changes or multiplier updates.
     pub augmentations: usize,
+    /// Corrections shortened by the rotations' trust region (`solver.rotation_step`).
+    #[serde(default)]
+    pub rotation_limited_steps: usize,
     /// Writing results (curves, tables, VTU frames) while the step ran (s).
     pub output_s: f64,
 }
@@ -83,6 +86,7 @@ impl StepSplit {
             solve_s: after.solve_s - before.solve_s,
             relaxation_s: after.relaxation.seconds - before.relaxation.seconds,
             augmentations: after.augmentations - before.augmentations,
+            rotation_limited_steps: after.rotation_limited_steps - before.rotation_limited_steps,
             output_s: 0.0,
         }
     }

@@ -106,10 +106,18 @@ impl MicroplateCompression {
             self.contact_force,
             self.max_increment,
         );
-        // `auto`: BFGS in the loading steps of a cell whose filaments are free. Filament
-        // nodes tied to the gel snap through under compression; there BFGS was not reliably
-        // cheaper than full Newton and needed more viscously stabilised increments.
-        let quasi_newton = cell.auto_iteration && cell.model.embedded.is_empty();
+        // `auto`: BFGS in the loading steps unless filament nodes are embedded (tied
+        // exactly to the gel). Embedded MTs snap through under compression; there BFGS was
+        // not reliably cheaper than full Newton and needed more viscously stabilised
+        // increments. MTs on the elastic foundation snap through too, but with the
+        // rotations' trust region BFGS halves their compression's factorisations
+        // (docs/performance.md, "A trust region on the rotations").
+        let quasi_newton = cell.auto_iteration
+            && cell
+                .model
+                .embedded
+                .iter()
+                .all(|e| e.foundation_modulus.is_some());
         let steps = &mut cell.model.steps;
         let mut previous = 0.0;
         let mut targets = Vec::new();

@@ -661,6 +661,43 @@ mod tests {
                 "embedded MTs: step {}",
                 step.name
             );
+            assert_eq!(step.control.convergence.max_rotation_step, 0.0);
+        }
+        // MTs on the elastic foundation: BFGS in the compression's loading steps, with the
+        // rotations' trust region in every step.
+        let mut values =
+            crate::param::ParamValues::defaults(&crate::cell::suspended::params::SUSPENDED_CELL);
+        values
+            .set(
+                &crate::cell::suspended::params::SUSPENDED_CELL,
+                "microtubules.coupling",
+                crate::param::ParamValue::Word("foundation".into()),
+            )
+            .unwrap();
+        let mut cell = SuspendedCell::from_values(&values);
+        cell.params.mesh.core_divisions = 4;
+        cell.params.mesh.shell_layers = 2;
+        cell.params.mesh.outer_layers = 2;
+        let mut built = cell.build().unwrap();
+        assert!(built.auto_iteration && !built.model.embedded.is_empty());
+        protocol.apply(&mut built).unwrap();
+        for step in &built.model.steps {
+            let expected = if step.name.starts_with("compress-") {
+                cellmech_fem::solve::IterationMethod::bfgs()
+            } else {
+                cellmech_fem::solve::IterationMethod::Newton
+            };
+            assert_eq!(
+                step.control.convergence.method, expected,
+                "foundation: step {}",
+                step.name
+            );
+            assert_eq!(
+                step.control.convergence.max_rotation_step,
+                crate::cell::suspended::params::FOUNDATION_ROTATION_STEP,
+                "foundation: step {}",
+                step.name
+            );
         }
     }
 }

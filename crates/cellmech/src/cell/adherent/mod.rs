@@ -113,6 +113,8 @@ pub struct AdherentCell {
     /// Whether full Newton solves with the last factorisation near convergence
     /// (`solver.chord`).
     pub chord: bool,
+    /// The rotations' trust region of every step (rad, 0: none; `solver.rotation_step`).
+    pub rotation_step: f64,
     /// Where the mesh is refined for an indenter (`None`: the base mesh). The AFM protocol
     /// sets it to its site.
     pub site: Option<IndentationSite>,
@@ -139,6 +141,7 @@ impl AdherentCell {
             iteration: s::iteration_from_values(values),
             relaxation: s::relaxation_from_values(values),
             chord: s::chord_from_values(values),
+            rotation_step: s::rotation_step_from_values(values),
             site: None,
         }
     }
@@ -154,6 +157,7 @@ impl AdherentCell {
             .unwrap_or(cellmech_fem::solve::IterationMethod::Newton);
         control.convergence.relaxation = self.relaxation;
         control.convergence.chord_near_convergence = self.chord;
+        control.convergence.max_rotation_step = self.rotation_step;
         control
     }
 

@@ -78,6 +78,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         shared::SOLVER_ITERATION,
         shared::SOLVER_RELAXATION,
         shared::SOLVER_CHORD,
+        shared::SOLVER_ROTATION_STEP,
         shared::INTERMEDIATE_YOUNGS_MODULUS,
         shared::INTERMEDIATE_DIAMETER,
         shared::INTERMEDIATE_SLACK,

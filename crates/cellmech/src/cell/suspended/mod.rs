@@ -668,6 +668,8 @@ pub struct SuspendedCell {
     /// Whether full Newton solves with the last factorisation near convergence
     /// (`solver.chord`).
     pub chord: bool,
+    /// The rotations' trust region of every step (rad, 0: none; `solver.rotation_step`).
+    pub rotation_step: f64,
 }
 
 impl Default for SuspendedCell {
@@ -692,6 +694,7 @@ impl SuspendedCell {
             .unwrap_or(cellmech_fem::solve::IterationMethod::Newton);
         control.convergence.relaxation = self.relaxation;
         control.convergence.chord_near_convergence = self.chord;
+        control.convergence.max_rotation_step = self.rotation_step;
         control
     }
 
@@ -707,6 +710,7 @@ impl SuspendedCell {
             iteration: params::iteration_from_values(values),
             relaxation: params::relaxation_from_values(values),
             chord: params::chord_from_values(values),
+            rotation_step: params::rotation_step_from_values(values),
         }
     }
 

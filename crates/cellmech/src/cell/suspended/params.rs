@@ -223,11 +223,13 @@ pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::C
 /// `solver.damping` (shared by the cell models).
 pub(crate) const SOLVER_DAMPING: ParamDef = p("solver.damping", K::Choice(&["auto", "nodal", "filament-drag"]), D::Word("auto"), ANY, "what the viscous stabilisation resists: `nodal`, every free node's motion over the increment (Abaqus); `filament-drag`, only the slip of the filament nodes tied to the gel relative to their material points, and the filaments' rotations (the drag of a viscous cytoplasm on a filament moving through it: rigid motion and the gel's own deformation are not damped; needs `microtubules.coupling = \"foundation\"`; a step with every tied family switched off gets `nodal`); `auto`, `filament-drag` with MTs on the foundation, `nodal` otherwise", "choice, measured ([stabilisation](stabilization.md#relative-damping)): on the suspended-cell compression with MTs on the foundation the drag dissipates 0.71 % of the last step's strain energy where the nodal viscosity takes 11 %, with the same forces within 0.3 %");
 /// `solver.iteration` (shared by the cell models).
-pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["auto", "newton", "bfgs"]), D::Word("auto"), ANY, "corrections after each increment's first: `newton`, full Newton in every step (a factorisation per iteration, chord steps near convergence); `bfgs`, quasi-Newton in every step (the increment's factorisation kept, up to 10 rank-two updates; a failed increment is retried with full Newton); `auto`, BFGS in the microplate compression's loading steps when no filament node is tied to the gel, full Newton everywhere else", "choice, measured ([performance](performance.md#bfgs-where-it-pays-2026-12-04-sixth-session)): BFGS halves the free cell's compression factorisations (fast mesh 86 -> 50, default mesh 111 -> 59; forces within 2e-8, 4e-5 where a cut-back changed the path) but is not reliably cheaper with embedded filaments, costs cut-backs in tension without AFs and at ~100 % elongation, and moves the AFM curve by 0.8 % (FEBio's default is BFGS)");
+pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["auto", "newton", "bfgs"]), D::Word("auto"), ANY, "corrections after each increment's first: `newton`, full Newton in every step (a factorisation per iteration, chord steps near convergence); `bfgs`, quasi-Newton in every step (the increment's factorisation kept, up to 10 rank-two updates; a failed increment is retried with full Newton); `auto`, BFGS in the microplate compression's loading steps unless filament nodes are embedded (free filaments, or MTs on the elastic foundation), full Newton everywhere else", "choice, measured ([performance](performance.md#bfgs-where-it-pays-2026-12-04-sixth-session)): BFGS halves the free cell's compression factorisations (fast mesh 86 -> 50, default mesh 111 -> 59; forces within 2e-8, 4e-5 where a cut-back changed the path) but is not reliably cheaper with embedded filaments, costs cut-backs in tension without AFs and at ~100 % elongation, and moves the AFM curve by 0.8 % (FEBio's default is BFGS); with MTs on the foundation and the rotations' trust region it takes the compression from 288 to 196 factorisations ([performance](performance.md#a-trust-region-on-the-rotations-2026-12-06))");
 /// `solver.relaxation` (shared by the cell models).
 pub(crate) const SOLVER_RELAXATION: ParamDef = p("solver.relaxation", K::Choice(&["filaments", "off"]), D::Word("filaments"), ANY, "after every global Newton update, each beam filament's own DOFs (the interior nodes of a free MT, the rotations at its ends) are moved to their equilibrium by a local Newton solve with the rest held (nonlinear elimination); the same equilibrium in fewer global iterations, or off", "choice, measured ([performance](performance.md#nonlinear-elimination-of-the-free-filaments)): default tension 74 -> 41 factorisations, compression 258 -> 160, forces within 2e-9");
 /// `solver.chord` (shared by the cell models).
 pub(crate) const SOLVER_CHORD: ParamDef = p("solver.chord", K::Choice(&["near-convergence", "off"]), D::Word("near-convergence"), ANY, "full Newton near convergence (residual within 1000 times the tolerance, the last step having divided it at least 100-fold) solves with the last factorisation instead of a new one, while each such chord step divides the residual at least 10-fold; the same convergence criteria, or off (a factorisation at every iteration)", "choice, measured ([performance](performance.md#chord-steps-near-convergence)): default tension 41 -> 31 factorisations, compression 160 -> 109, forces within 8e-9");
+/// `solver.rotation_step` (shared by the cell models).
+pub(crate) const SOLVER_ROTATION_STEP: ParamDef = p("solver.rotation_step", K::Quantity(crate::units::Dimension::Angle), D::Absent("0.2 rad with `microtubules.coupling = \"foundation\"`; no bound otherwise"), NONNEG, "trust region of the beams' rotations: a Newton correction (after an increment's first) that would turn a filament node by more than this is shortened along its own direction until it does not; the same equilibria, a different path; `\"0 rad\"` switches it off", "choice, measured ([performance](performance.md#a-trust-region-on-the-rotations-2026-12-06)): in the compression with MTs on the foundation Newton proposed rotation corrections of 10-900 rad where tied MTs snap through; 0.2 rad takes the 50 % step from 257 to 201 factorisations (0.5 rad: no gain, 0.1 rad: 250), forces within 0.03 %");
 /// `intermediate.youngs_modulus` (shared by the cell models).
 pub(crate) const INTERMEDIATE_YOUNGS_MODULUS: ParamDef = p(
     "intermediate.youngs_modulus",
@@ -479,6 +481,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         SOLVER_ITERATION,
         SOLVER_RELAXATION,
         SOLVER_CHORD,
+        SOLVER_ROTATION_STEP,
         INTERMEDIATE_YOUNGS_MODULUS,
         INTERMEDIATE_DIAMETER,
         INTERMEDIATE_SLACK,
@@ -659,6 +662,20 @@ pub fn iteration_from_values(v: &ParamValues) -> Option<IterationMethod> {
         _ => None,
     }
 }
+
+/// The rotations' trust region of every step (rad, 0: none) from resolved values of a cell
+/// model's table: `solver.rotation_step`, or when absent 0.2 rad with MTs on the elastic
+/// foundation (where tied MTs snap through) and none otherwise.
+pub fn rotation_step_from_values(v: &ParamValues) -> f64 {
+    match v.optional_number("solver.rotation_step") {
+        Some(bound) => bound,
+        None if v.word("microtubules.coupling") == "foundation" => FOUNDATION_ROTATION_STEP,
+        None => 0.0,
+    }
+}
+
+/// The rotations' trust region where MTs lie on the elastic foundation (rad).
+pub const FOUNDATION_ROTATION_STEP: f64 = 0.2;
 
 /// Whether full Newton takes chord steps near convergence, from resolved values of
 /// [`SUSPENDED_CELL`].
