@@ -699,5 +699,29 @@ mod tests {
                 step.name
             );
         }
+        // With the trust region switched off, BFGS is not taken there (it did not end the
+        // 50 % step in equilibrium).
+        values
+            .set(
+                &crate::cell::suspended::params::SUSPENDED_CELL,
+                "solver.rotation_step",
+                crate::param::ParamValue::Number(0.0),
+            )
+            .unwrap();
+        let mut cell = SuspendedCell::from_values(&values);
+        cell.params.mesh.core_divisions = 4;
+        cell.params.mesh.shell_layers = 2;
+        cell.params.mesh.outer_layers = 2;
+        let mut built = cell.build().unwrap();
+        protocol.apply(&mut built).unwrap();
+        for step in &built.model.steps {
+            assert_eq!(
+                step.control.convergence.method,
+                cellmech_fem::solve::IterationMethod::Newton,
+                "foundation without the bound: step {}",
+                step.name
+            );
+            assert_eq!(step.control.convergence.max_rotation_step, 0.0);
+        }
     }
 }
