@@ -576,6 +576,21 @@ mod tests {
     use crate::cell::suspended::SuspendedCell;
     use cellmech_fem::solve::Activation;
 
+    /// `cell` on a coarse mesh, with filaments tied to the gel, built and given `protocol`'s
+    /// steps.
+    fn compression_on_a_coarse_cell(
+        mut cell: SuspendedCell,
+        protocol: &Protocol,
+    ) -> crate::cell::BuiltCell {
+        cell.params.mesh.core_divisions = 4;
+        cell.params.mesh.shell_layers = 2;
+        cell.params.mesh.outer_layers = 2;
+        let mut built = cell.build().unwrap();
+        assert!(built.auto_iteration && !built.model.embedded.is_empty());
+        protocol.apply(&mut built).unwrap();
+        built
+    }
+
     /// Every step a protocol writes carries the cell's stabilisation setting (a step that
     /// forgot it would run without, silently).
     #[test]
@@ -647,13 +662,8 @@ mod tests {
         let values = crate::param::ParamValues::defaults(table);
         let protocol = Protocol::from_values("microplate-compression", &values).unwrap();
         let mut cell = SuspendedCell::default();
-        cell.params.mesh.core_divisions = 4;
-        cell.params.mesh.shell_layers = 2;
-        cell.params.mesh.outer_layers = 2;
         cell.coupling.microtubules_embedded = true;
-        let mut built = cell.build().unwrap();
-        assert!(built.auto_iteration && !built.model.embedded.is_empty());
-        protocol.apply(&mut built).unwrap();
+        let built = compression_on_a_coarse_cell(cell, &protocol);
         for step in &built.model.steps {
             assert_eq!(
                 step.control.convergence.method,
@@ -674,13 +684,7 @@ mod tests {
                 crate::param::ParamValue::Word("foundation".into()),
             )
             .unwrap();
-        let mut cell = SuspendedCell::from_values(&values);
-        cell.params.mesh.core_divisions = 4;
-        cell.params.mesh.shell_layers = 2;
-        cell.params.mesh.outer_layers = 2;
-        let mut built = cell.build().unwrap();
-        assert!(built.auto_iteration && !built.model.embedded.is_empty());
-        protocol.apply(&mut built).unwrap();
+        let built = compression_on_a_coarse_cell(SuspendedCell::from_values(&values), &protocol);
         for step in &built.model.steps {
             let expected = if step.name.starts_with("compress-") {
                 cellmech_fem::solve::IterationMethod::bfgs()
@@ -708,12 +712,7 @@ mod tests {
                 crate::param::ParamValue::Number(0.0),
             )
             .unwrap();
-        let mut cell = SuspendedCell::from_values(&values);
-        cell.params.mesh.core_divisions = 4;
-        cell.params.mesh.shell_layers = 2;
-        cell.params.mesh.outer_layers = 2;
-        let mut built = cell.build().unwrap();
-        protocol.apply(&mut built).unwrap();
+        let built = compression_on_a_coarse_cell(SuspendedCell::from_values(&values), &protocol);
         for step in &built.model.steps {
             assert_eq!(
                 step.control.convergence.method,
