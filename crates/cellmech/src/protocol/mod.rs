@@ -591,6 +591,30 @@ mod tests {
         built
     }
 
+    /// Every step of `built` iterates by BFGS where `bfgs_in_loading` and the step is a
+    /// compression's loading step, by full Newton elsewhere, with the rotation bound `bound`.
+    fn assert_compression_solver(
+        built: &crate::cell::BuiltCell,
+        bfgs_in_loading: bool,
+        bound: f64,
+        case: &str,
+    ) {
+        for step in &built.model.steps {
+            let expected = if bfgs_in_loading && step.name.starts_with("compress-") {
+                cellmech_fem::solve::IterationMethod::bfgs()
+            } else {
+                cellmech_fem::solve::IterationMethod::Newton
+            };
+            let convergence = &step.control.convergence;
+            assert_eq!(convergence.method, expected, "{case}: step {}", step.name);
+            assert_eq!(
+                convergence.max_rotation_step, bound,
+                "{case}: step {}",
+                step.name
+            );
+        }
+    }
+
     /// Every step a protocol writes carries the cell's stabilisation setting (a step that
     /// forgot it would run without, silently).
     #[test]
@@ -664,15 +688,7 @@ mod tests {
         let mut cell = SuspendedCell::default();
         cell.coupling.microtubules_embedded = true;
         let built = compression_on_a_coarse_cell(cell, &protocol);
-        for step in &built.model.steps {
-            assert_eq!(
-                step.control.convergence.method,
-                cellmech_fem::solve::IterationMethod::Newton,
-                "embedded MTs: step {}",
-                step.name
-            );
-            assert_eq!(step.control.convergence.max_rotation_step, 0.0);
-        }
+        assert_compression_solver(&built, false, 0.0, "embedded MTs");
         // MTs on the elastic foundation: BFGS in the compression's loading steps, with the
         // rotations' trust region in every step.
         let mut values =
@@ -685,24 +701,12 @@ mod tests {
             )
             .unwrap();
         let built = compression_on_a_coarse_cell(SuspendedCell::from_values(&values), &protocol);
-        for step in &built.model.steps {
-            let expected = if step.name.starts_with("compress-") {
-                cellmech_fem::solve::IterationMethod::bfgs()
-            } else {
-                cellmech_fem::solve::IterationMethod::Newton
-            };
-            assert_eq!(
-                step.control.convergence.method, expected,
-                "foundation: step {}",
-                step.name
-            );
-            assert_eq!(
-                step.control.convergence.max_rotation_step,
-                crate::cell::suspended::params::FOUNDATION_ROTATION_STEP,
-                "foundation: step {}",
-                step.name
-            );
-        }
+        assert_compression_solver(
+            &built,
+            true,
+            crate::cell::suspended::params::FOUNDATION_ROTATION_STEP,
+            "foundation",
+        );
         // With the trust region switched off, BFGS is not taken there (it did not end the
         // 50 % step in equilibrium).
         values
@@ -713,14 +717,6 @@ mod tests {
             )
             .unwrap();
         let built = compression_on_a_coarse_cell(SuspendedCell::from_values(&values), &protocol);
-        for step in &built.model.steps {
-            assert_eq!(
-                step.control.convergence.method,
-                cellmech_fem::solve::IterationMethod::Newton,
-                "foundation without the bound: step {}",
-                step.name
-            );
-            assert_eq!(step.control.convergence.max_rotation_step, 0.0);
-        }
+        assert_compression_solver(&built, false, 0.0, "foundation without the bound");
     }
 }
