@@ -408,11 +408,16 @@ fn beam_microtubule_buckles_at_the_euler_load_and_newton_converges_on_piconewton
 struct Counts {
     iterations: usize,
     cutbacks: usize,
+    /// The step length of each attempt's first correction.
+    first_steps: Vec<f64>,
 }
 
 impl cellmech_fem::solve::Observer for Counts {
-    fn on_iteration(&mut self, _report: &cellmech_fem::solve::IterationReport) {
+    fn on_iteration(&mut self, report: &cellmech_fem::solve::IterationReport) {
         self.iterations += 1;
+        if report.iteration == 0 {
+            self.first_steps.push(report.line_search);
+        }
     }
     fn on_cutback(
         &mut self,
@@ -426,8 +431,9 @@ impl cellmech_fem::solve::Observer for Counts {
 
 /// A cantilever rolled up by an end moment M = φ·EI/L, applied as one step, bends into a
 /// circular arc of radius L/φ (pure bending: the corotational element's nodes lie on it
-/// exactly). Returns (tip error / L, iterations, cut-backs, shortened corrections).
-fn roll_up(max_rotation_step: f64) -> (f64, usize, usize, usize) {
+/// exactly). Returns (tip error / L, iterations, cut-backs, shortened corrections, the
+/// step length of the first correction).
+fn roll_up(max_rotation_step: f64) -> (f64, usize, usize, usize, f64) {
     let (n, length, ei) = (24, 2.0, 3.0);
     let phi = 1.5 * PI;
     let (coords, pairs) = straight(n, length);
@@ -459,22 +465,33 @@ fn roll_up(max_rotation_step: f64) -> (f64, usize, usize, usize) {
         counts.iterations,
         counts.cutbacks,
         problem.timings().rotation_limited_steps,
+        counts.first_steps[0],
     )
 }
 
 /// The rotations' trust region changes Newton's path, not the equilibrium it converges to:
 /// the 270° arc is reached with and without it, the tip within 1e-6 L of the exact one, and with it
 /// the corrections were shortened (so the bound acted on this problem).
+///
+/// The bound holds for the first correction too, which moves no prescribed DOF here (the
+/// load is a moment): on the straight cantilever the linearised tip rotation is exactly
+/// M·L/EI = 1.5π, the largest of the correction, so the first step is 0.5 / 1.5π.
 #[test]
 fn a_trust_region_on_the_rotations_shortens_newton_steps_and_keeps_the_equilibrium() {
-    let (error, iterations, cutbacks, shortened) = roll_up(0.5);
+    let (error, iterations, cutbacks, shortened, first) = roll_up(0.5);
+    let expected = 0.5 / (1.5 * PI);
+    assert!(
+        (first - expected).abs() < 1e-9,
+        "first correction's step {first}, expected {expected}"
+    );
     eprintln!(
         "trust region 0.5 rad: tip error {error:.2e} L, {iterations} iterations, \
          {cutbacks} cut-backs, {shortened} shortened corrections"
     );
     assert!(error < 1e-6, "tip {error} L off the arc");
     assert!(shortened > 0, "the trust region never acted");
-    let (free_error, iterations, cutbacks, shortened) = roll_up(0.0);
+    let (free_error, iterations, cutbacks, shortened, first) = roll_up(0.0);
+    assert_eq!(first, 1.0, "the unbounded first correction is the full one");
     eprintln!(
         "no trust region: tip error {free_error:.2e} L, {iterations} iterations, \
          {cutbacks} cut-backs, {shortened} shortened corrections"

@@ -143,8 +143,17 @@ impl Problem {
             // Update and evaluate at the new point (tangent included for the next solve).
             let tolerance = conv.residual_tolerance * scale_floor.max(self.work.scale);
             if iteration == 0 {
+                // The rotations' trust region bounds the first correction too when it moves
+                // no prescribed DOF (an extrapolated or re-solved start, a rigid tool's
+                // motion): shortening it then leaves no prescribed DOF short of its target.
+                // From an extrapolated start past a filament's snap-through, or at the
+                // re-solve without viscosity, the unbounded correction turned held MT
+                // nodes by radians (docs/performance.md, "The first correction too").
+                if self.work.du_prescribed.iter().all(|&x| x == 0.0) {
+                    step_length = self.rotation_step_limit(conv.max_rotation_step);
+                }
                 for d in 0..n {
-                    self.u[d] += self.work.delta[d];
+                    self.u[d] += step_length * self.work.delta[d];
                 }
                 self.set_near_equilibrium(false);
                 if relaxing {
