@@ -634,7 +634,7 @@ impl Problem {
                         stabilization,
                     };
                     observer.on_increment(self, &report);
-                    if iterations <= control.easy_iterations {
+                    if iterations <= attempt.easy_iterations_of_method() {
                         dt = (dt * control.growth).min(control.max_increment);
                     }
                     let g_before = g_prev;

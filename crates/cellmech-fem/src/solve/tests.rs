@@ -752,3 +752,40 @@ fn a_round_after_a_late_augmentation_measures_energy_against_its_own_start() {
         .fold(0.0f64, f64::max);
     assert!(worst <= 1.0, "largest energy ratio {worst}");
 }
+
+#[test]
+fn a_bfgs_increment_within_ten_iterations_grows_the_next() {
+    // The large-rotation spring by BFGS from a small first increment: an increment that
+    // converged within `easy_quasi_newton_iterations` (10) grows the next by `growth`, also
+    // when it took more than full Newton's `easy_iterations` (5); the rule is exercised only
+    // if some increment took 6-10 iterations, which is asserted too.
+    let (mut p, mut step) = large_rotation_spring();
+    step.control.initial_increment = 0.02;
+    step.control.max_increment = 1.0;
+    step.control.convergence.method = IterationMethod::Bfgs { max_updates: 10 };
+    step.control.convergence.residual_tolerance = 1e-12;
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    assert_eq!(rec.cutbacks, 0);
+    eprintln!("increments (end time, iterations): {:?}", rec.increments);
+    let mut times = vec![0.0];
+    times.extend(rec.increments.iter().map(|i| i.0));
+    let dts: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut between_easy_limits = 0;
+    for i in 0..dts.len().saturating_sub(2) {
+        let iterations = rec.increments[i].1;
+        let expected = if iterations <= 10 {
+            1.5 * dts[i]
+        } else {
+            dts[i]
+        };
+        assert!(
+            (dts[i + 1] - expected).abs() < 1e-12,
+            "increment {i}: {iterations} iterations, next {} against {expected}",
+            dts[i + 1]
+        );
+        between_easy_limits += usize::from(iterations > 5 && iterations <= 10);
+    }
+    assert!(between_easy_limits > 0, "no increment took 6-10 iterations");
+    assert!((1.0 + p.u()[3] - 1.04).abs() < 1e-7 && (p.u()[4] - 0.78).abs() < 1e-7);
+}
