@@ -41,9 +41,11 @@ pub struct Convergence {
     /// that changed the active set, a new factorisation. The convergence criteria are
     /// unchanged, so the accepted states meet the same tolerances.
     pub chord_near_convergence: bool,
-    /// Trust region of the rotational DOFs (rad; 0: none). A correction after the
-    /// increment's first whose largest nodal-rotation component exceeds this is shortened
-    /// along its own direction until it does not, before the line search. A beam node's
+    /// Trust region of the rotational DOFs (rad; 0: none). A correction whose largest
+    /// nodal-rotation component exceeds this is shortened along its own direction until it
+    /// does not, before the line search; so is an increment's first correction when it
+    /// moves no prescribed DOF (an extrapolated or re-solved start, a rigid tool's motion;
+    /// one carrying a prescribed motion is taken whole, to reach the targets). A beam node's
     /// rotation enters its kinematics through exp(θ̂), whose linearisation is good only for
     /// increments well below a radian: where filaments tied to the gel snap through, Newton
     /// otherwise proposed rotation corrections of 10-900 rad, and the increment failed
