@@ -111,8 +111,9 @@ impl MicroplateCompression {
         // not reliably cheaper than full Newton and needed more viscously stabilised
         // increments. MTs on the elastic foundation snap through too, but with the
         // rotations' trust region BFGS takes their compression from 288 to 217
-        // factorisations (docs/performance.md, "A trust region on the rotations"); without
-        // it BFGS did not end the 50 % step in equilibrium.
+        // factorisations (docs/performance.md, "A trust region on the rotations"; 154 since
+        // it bounds the first correction too); without it BFGS did not end the 50 % step in
+        // equilibrium.
         let bounded = cell.step_control.convergence.max_rotation_step > 0.0;
         let quasi_newton = cell.auto_iteration
             && cell
