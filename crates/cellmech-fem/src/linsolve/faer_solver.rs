@@ -61,10 +61,11 @@ pub const MIXED_SOLVE_TOLERANCE: f64 = 1e-6;
 
 /// Mixed precision: most conjugate-gradient iterations of one solve before the solver
 /// falls back to a double-precision factorisation. The cell tangents (23.5k DOFs) took 6 to
-/// 11; at about 14 ms an iteration (one single-precision solve and one product with A)
-/// against about 0.2 s saved by the single-precision factorisation, a solve stops paying
-/// for itself near 15. 20 is twice the cells' count and still within a factorisation's
-/// cost, so one slow tangent does not switch a whole analysis to double precision, while
+/// 11; at about 12 ms an iteration (one single-precision solve and one product with A)
+/// against 0.16–0.23 s saved by the single-precision factorisation, a solve stops paying
+/// for itself between 13 and 19 iterations. 20 is about twice the cells' count and still
+/// near a factorisation's saving, so one slow tangent does not switch a whole analysis to
+/// double precision, while
 /// a preconditioner that leaves many eigenvalues of `M⁻¹A` spread (CG needs about one
 /// iteration per outlier) does.
 pub const MIXED_MAX_ITERATIONS: usize = 20;
