@@ -53,24 +53,32 @@ pub struct AnalysisInfo {
     pub tree_factorisation: bool,
 }
 
-/// Mixed precision: a solve is refined until its last correction is at most this fraction
-/// of the solution (a Newton direction to 1e-6 relative is as good as an exact one: the
+/// Mixed precision: a solve is refined until the preconditioned residual `M⁻¹(b − A x)` (the
+/// correction a step of stationary refinement would make) is at most this fraction of the
+/// solution (a Newton direction to 1e-6 relative is as good as an exact one: the
 /// chord steps of `solve::newton` use far older tangents).
 pub const MIXED_SOLVE_TOLERANCE: f64 = 1e-6;
 
-/// Mixed precision: most refinement steps of one solve before the solver falls back to a
-/// double-precision factorisation.
-const MIXED_MAX_REFINEMENTS: usize = 4;
-
-/// Mixed precision: a refinement step that shrinks the correction less than this factor
-/// means single precision does not resolve the matrix (condition number near 1/ε₃₂):
-/// double precision takes over.
-const MIXED_MIN_CONTRACTION: f64 = 4.0;
+/// Mixed precision: most conjugate-gradient iterations of one solve before the solver
+/// falls back to a double-precision factorisation. The cell tangents (23.5k DOFs) took 6 to
+/// 11; at about 12 ms an iteration (one single-precision solve and one product with A)
+/// against 0.16–0.23 s saved by the single-precision factorisation, a solve stops paying
+/// for itself between 13 and 19 iterations. 20 is about twice the cells' count and still
+/// near a factorisation's saving, so one slow tangent does not switch a whole analysis to
+/// double precision, while
+/// a preconditioner that leaves many eigenvalues of `M⁻¹A` spread (CG needs about one
+/// iteration per outlier) does.
+pub const MIXED_MAX_ITERATIONS: usize = 20;
 
 /// Mixed precision: a single-precision Cholesky pivot `L_kk²` of the unit-diagonal scaled
-/// matrix below this (six of single precision's seven digits cancelled in the elimination)
-/// resolves too little of the matrix: the factorisation is redone in double precision.
-const MIXED_PIVOT_FLOOR: f64 = 1e-6;
+/// matrix below this is no larger than its own rounding error (about 1.7 units of single
+/// precision's roundoff 2⁻²⁴ ≈ 6e-8, against a unit diagonal): not even its sign is known,
+/// so the factorisation is redone in double precision (which also gets the inertia right).
+/// Pivots above it but with few correct digits only make a few eigenvalues of `M⁻¹A`
+/// outliers, which the conjugate gradients of the solve handle; whether single precision
+/// resolves the matrix is decided there. (Until the PCG solve, this floor was 1e-6; the cell
+/// tangents have pivots down to 3.5e-7, and every one of them solved in 6–11 iterations.)
+const MIXED_PIVOT_FLOOR: f64 = 1e-7;
 
 /// Largest relative forward error of the LU probe solve for the LU to be accepted.
 const LU_PROBE_TOLERANCE: f64 = 1e-6;
@@ -112,22 +120,26 @@ struct Analysis {
     /// Copy of the last factorised values (for iterative refinement of pivoted solves).
     values: Vec<f64>,
     info: AnalysisInfo,
-    /// Mixed precision: the values and L in single precision, and the refinement's
-    /// buffers (empty unless mixed precision is on).
+    /// Mixed precision: the values and L in single precision, and the buffers of the
+    /// refinement by conjugate gradients (empty unless mixed precision is on).
     values32: Vec<f32>,
     l_values32: Vec<f32>,
     x32: Vec<f32>,
     /// Mixed precision: 1/√|A_jj|, the symmetric scaling that gives the single-precision
     /// matrix a unit diagonal.
     scale: Vec<f64>,
+    /// Mixed precision, the preconditioned conjugate gradients of a solve: the saved
+    /// right-hand side, the residual, the search direction and A times it.
     refine_b: Vec<f64>,
     refine_r: Vec<f64>,
+    cg_p: Vec<f64>,
+    cg_ap: Vec<f64>,
 }
 
 /// Which numeric factor is currently valid.
 enum Numeric {
     Llt,
-    /// Cholesky in single precision, solves refined in double
+    /// Cholesky in single precision, solves refined in double by preconditioned CG
     /// ([`FaerSparseSolver::with_mixed_precision`]).
     Llt32,
     Lblt,
@@ -157,9 +169,12 @@ pub struct FaerSparseSolver {
     skip_cholesky: bool,
     /// Factorise positive definite matrices in single precision first.
     mixed: bool,
-    /// Single precision failed once on a positive definite matrix (pivot or refinement):
-    /// double precision from then on.
+    /// Single precision failed once on a positive definite matrix (pivot or conjugate
+    /// gradients): double precision from then on.
     mixed_off: bool,
+    /// Most conjugate-gradient iterations of a mixed-precision solve
+    /// ([`MIXED_MAX_ITERATIONS`]; lowered by tests to reach the fallback in a solve).
+    mixed_max_iterations: usize,
     stats: MixedPrecisionStats,
 }
 
@@ -168,14 +183,16 @@ pub struct FaerSparseSolver {
 pub struct MixedPrecisionStats {
     /// Factorisations done in single precision.
     pub single_factorizations: usize,
-    /// Refinement steps (each one double-precision product with A and one single-precision
-    /// solve).
+    /// Conjugate-gradient iterations of the refined solves (each one double-precision
+    /// product with A and one single-precision solve; a solve also does one
+    /// single-precision solve before its first iteration).
     pub refinement_steps: usize,
     /// Solves left unrefined because the caller asked for an approximate direction
     /// ([`LinearSolver::solve_approximately_in_place`]: quasi-Newton and chord steps).
     pub unrefined_solves: usize,
-    /// Times single precision did not resolve a positive definite matrix (a tiny pivot, or
-    /// a refinement that stalled) and double precision took over for the rest of the
+    /// Times single precision did not resolve a positive definite matrix (a pivot below
+    /// the floor, or conjugate gradients that broke down or ran out of iterations) and
+    /// double precision took over for the rest of the
     /// solver's life. (An indefinite matrix goes to the pivoted factorisation as without
     /// mixed precision, and the next positive definite one is tried in single precision.)
     pub fallbacks: usize,
@@ -207,22 +224,31 @@ impl FaerSparseSolver {
             skip_cholesky: false,
             mixed: false,
             mixed_off: false,
+            mixed_max_iterations: MIXED_MAX_ITERATIONS,
             stats: MixedPrecisionStats::default(),
         }
     }
 
     /// Mixed precision (off by default): a matrix that Cholesky can factorise is scaled to a
     /// unit diagonal and factorised in single precision (about two thirds of the time, half
-    /// the memory traffic of the solves), and every solve is refined in double precision,
-    /// `x += L⁻ᵀL⁻¹(b − A x)`, until the last correction is at most
-    /// [`MIXED_SOLVE_TOLERANCE`] of `x` (usually one step);
-    /// [`LinearSolver::solve_approximately_in_place`] skips the refinement. When single
-    /// precision does not resolve the matrix (a pivot `L_kk²` below 1e-6 of the unit
-    /// diagonal, or a refinement step that shrinks the correction less than 4-fold), the
-    /// matrix is factorised again in double precision, and the solver stays in double
-    /// precision from then on. See `docs/linear-solver.md`, "Mixed precision".
+    /// the memory traffic of the solves), and every solve is refined in double precision by
+    /// conjugate gradients preconditioned with that factor, until the preconditioned
+    /// residual is at most [`MIXED_SOLVE_TOLERANCE`] of `x` (2 to 11 iterations on the
+    /// matrices measured); [`LinearSolver::solve_approximately_in_place`] skips the
+    /// refinement. When single precision does not resolve the matrix (a pivot `L_kk²` below
+    /// 1e-7 of the unit diagonal, or conjugate gradients that break down or take more than
+    /// [`MIXED_MAX_ITERATIONS`]), the matrix is factorised again in double precision, and
+    /// the solver stays in double precision from then on. See `docs/linear-solver.md`, "Mixed precision".
     pub fn with_mixed_precision(mut self, on: bool) -> Self {
         self.mixed = on;
+        self
+    }
+
+    /// Test hook: at most `iterations` conjugate-gradient iterations per mixed-precision
+    /// solve, so that a test can make a solve fall back to double precision.
+    #[cfg(test)]
+    pub(crate) fn with_mixed_max_iterations(mut self, iterations: usize) -> Self {
+        self.mixed_max_iterations = iterations;
         self
     }
 
@@ -578,6 +604,8 @@ impl LinearSolver for FaerSparseSolver {
             scale: vec![0.0; mixed_len(n)],
             refine_b: vec![0.0; mixed_len(n)],
             refine_r: vec![0.0; mixed_len(n)],
+            cg_p: vec![0.0; mixed_len(n)],
+            cg_ap: vec![0.0; mixed_len(n)],
         });
         Ok(())
     }
@@ -666,7 +694,8 @@ impl LinearSolver for FaerSparseSolver {
                 if self.refined_single_solve(rhs)? {
                     return Ok(());
                 }
-                // Single precision stalled: double precision from the saved right-hand side.
+                // The conjugate gradients did not get there: double precision from the saved
+                // right-hand side.
                 self.fall_back_to_double();
                 let a = self
                     .analysis
@@ -792,13 +821,15 @@ impl FaerSparseSolver {
         })
     }
 
-    /// Solves with the single-precision factor and refines in double precision until the
-    /// last correction is at most [`MIXED_SOLVE_TOLERANCE`] of the solution. False (with
-    /// `rhs` garbage, the right-hand side kept in `refine_b`) when a step stalls or the
-    /// steps run out.
+    /// Solves by conjugate gradients in double precision preconditioned with the
+    /// single-precision factor ([`pcg_single_solve`]) to [`MIXED_SOLVE_TOLERANCE`]. False
+    /// (with `rhs` garbage, the right-hand side kept in `refine_b`) when they break down or
+    /// the iterations run out.
     fn refined_single_solve(&mut self, rhs: &mut [f64]) -> Result<bool, LinSolveError> {
+        let max_iterations = self.mixed_max_iterations;
         let (par, a) = self.solve_setup()?;
-        let (steps, resolved) = refine_single_solve(a, rhs, par);
+        let (steps, resolved) =
+            pcg_single_solve(a, rhs, par, MIXED_SOLVE_TOLERANCE, max_iterations);
         self.stats.refinement_steps += steps;
         Ok(resolved)
     }
@@ -836,48 +867,82 @@ impl FaerSparseSolver {
     }
 }
 
-/// The single-precision factor's solution for `rhs`, refined in double precision until the
-/// last correction is at most [`MIXED_SOLVE_TOLERANCE`] of it. Returns the refinement steps
-/// taken and whether it got there (false: a step stalled or the steps ran out; `rhs` is
-/// then garbage and the right-hand side is kept in `a.refine_b`).
-fn refine_single_solve(a: &mut Analysis, rhs: &mut [f64], par: Par) -> (usize, bool) {
+/// `A x = rhs` by conjugate gradients in double precision preconditioned with the
+/// single-precision factor `M = L₃₂L₃₂ᵀ` (scaled back from the unit diagonal), from
+/// `x = 0`, until the preconditioned residual `z = M⁻¹(b − A x)` (the correction the
+/// stationary refinement would take) is at most `tolerance` of `x`. Returns the
+/// iterations (each one product with A and one single-precision solve) and whether it got
+/// there within `max_iterations` (false also when CG breaks down: a non-positive curvature
+/// `pᵀAp` or `rᵀz`, or a value that is not finite; `rhs` is then garbage and the
+/// right-hand side is kept in `a.refine_b`).
+///
+/// β is the flexible (Polak–Ribière) one, `zₖ₊₁ᵀ(rₖ₊₁ − rₖ)/(zₖᵀrₖ)`: the rounding of the
+/// single-precision solves makes `M⁻¹` slightly different at every application, which the
+/// Fletcher–Reeves β of plain PCG assumes it is not (Notay 2000, "Flexible conjugate
+/// gradients"). With `rₖ₊₁ − rₖ = −α A p` it needs no further vector.
+fn pcg_single_solve(
+    a: &mut Analysis,
+    rhs: &mut [f64],
+    par: Par,
+    tolerance: f64,
+    max_iterations: usize,
+) -> (usize, bool) {
     a.refine_b.copy_from_slice(rhs);
-    let mut steps = 0;
-    single_precision_solve(a, rhs, par);
-    for (x, &y) in rhs.iter_mut().zip(&a.x32) {
-        *x = f64::from(y);
+    a.refine_r.copy_from_slice(rhs);
+    rhs.fill(0.0);
+    let r = std::mem::take(&mut a.refine_r);
+    single_precision_solve(a, &r, par);
+    a.refine_r = r;
+    let mut rz = 0.0;
+    for ((p, &z), &r) in a.cg_p.iter_mut().zip(&a.x32).zip(&a.refine_r) {
+        *p = f64::from(z);
+        rz += r * *p;
     }
-    let mut last = f64::INFINITY;
-    for _ in 0..MIXED_MAX_REFINEMENTS {
-        a.pattern.sym_mul(&a.values, rhs, &mut a.refine_r);
-        for (r, &b) in a.refine_r.iter_mut().zip(&a.refine_b) {
-            *r = b - *r;
+    if rz == 0.0 && a.refine_b.iter().all(|&b| b == 0.0) {
+        return (0, true);
+    }
+    for iteration in 1..=max_iterations {
+        a.pattern.sym_mul(&a.values, &a.cg_p, &mut a.cg_ap);
+        let pap: f64 = a.cg_p.iter().zip(&a.cg_ap).map(|(p, q)| p * q).sum();
+        if !(rz > 0.0 && pap > 0.0 && rz.is_finite() && pap.is_finite()) {
+            return (iteration, false);
+        }
+        let alpha = rz / pap;
+        for (x, &p) in rhs.iter_mut().zip(&a.cg_p) {
+            *x += alpha * p;
+        }
+        for (r, &q) in a.refine_r.iter_mut().zip(&a.cg_ap) {
+            *r -= alpha * q;
         }
         let r = std::mem::take(&mut a.refine_r);
         single_precision_solve(a, &r, par);
         a.refine_r = r;
-        steps += 1;
-        let mut correction = 0.0;
-        let mut size = 0.0;
-        for (x, &d) in rhs.iter_mut().zip(&a.x32) {
-            let d = f64::from(d);
-            *x += d;
-            correction += d * d;
-            size += *x * *x;
+        let (mut rz_next, mut zq, mut zz, mut xx) = (0.0, 0.0, 0.0, 0.0);
+        for (((&z, &r), &q), &x) in a.x32.iter().zip(&a.refine_r).zip(&a.cg_ap).zip(&*rhs) {
+            let z = f64::from(z);
+            rz_next += r * z;
+            zq += z * q;
+            zz += z * z;
+            xx += x * x;
         }
-        let correction = correction.sqrt();
-        if !correction.is_finite() {
-            return (steps, false);
+        if !(zz.is_finite() && xx.is_finite()) {
+            return (iteration, false);
         }
-        if correction <= MIXED_SOLVE_TOLERANCE * size.sqrt() {
-            return (steps, true);
+        if zz.sqrt() <= tolerance * xx.sqrt() {
+            // z is the stationary refinement's correction of x, already computed: adding
+            // it costs nothing and leaves an error well below the one z estimates.
+            for (x, &z) in rhs.iter_mut().zip(&a.x32) {
+                *x += f64::from(z);
+            }
+            return (iteration, true);
         }
-        if correction * MIXED_MIN_CONTRACTION > last {
-            return (steps, false);
+        let beta = -alpha * zq / rz;
+        for (p, &z) in a.cg_p.iter_mut().zip(&a.x32) {
+            *p = f64::from(z) + beta * *p;
         }
-        last = correction;
+        rz = rz_next;
     }
-    (steps, false)
+    (max_iterations, false)
 }
 
 /// How the numeric LLᵀ runs: on the elimination tree when `tree` is there (with up to

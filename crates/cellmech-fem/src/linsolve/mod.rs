@@ -16,7 +16,7 @@ mod tree_cholesky;
 pub use dense::DenseSolver;
 pub use faer_solver::{
     AnalysisInfo, FaerSparseSolver, MixedPrecisionStats, DEFAULT_PARALLEL_MIN_FLOPS,
-    MIXED_SOLVE_TOLERANCE,
+    MIXED_MAX_ITERATIONS, MIXED_SOLVE_TOLERANCE,
 };
 pub use ordering::FillOrdering;
 pub use pattern::SparsityPattern;

@@ -354,17 +354,156 @@ fn mixed_precision_refines_a_single_precision_solve_to_the_tolerance() {
     assert!(error > 1e-14, "single precision left no trace: {error:e}");
 }
 
+/// Relative errors (against `x64`) of the single-precision factor's solution and of `steps`
+/// steps of stationary iterative refinement `x += M⁻¹(b − A x)` after it, `M⁻¹` being the
+/// unrefined single-precision solve (what the mixed-precision solver did before it
+/// refined with conjugate gradients).
+fn stationary_refinement_errors(m: &TestMatrix, x64: &[f64], steps: usize) -> Vec<f64> {
+    let mut single = FaerSparseSolver::new(1).with_mixed_precision(true);
+    single.analyze(&m.pattern).expect("analyze");
+    single.factorize(&m.values).expect("factorize");
+    let b = rhs(m.pattern.n);
+    let mut x = b.clone();
+    single.solve_approximately_in_place(&mut x).expect("solve");
+    let mut errors = vec![relative_distance(&x, x64)];
+    let mut r = vec![0.0; b.len()];
+    for _ in 0..steps {
+        m.pattern.sym_mul(&m.values, &x, &mut r);
+        r.iter_mut().zip(&b).for_each(|(r, b)| *r = b - *r);
+        single.solve_approximately_in_place(&mut r).expect("solve");
+        x.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
+        errors.push(relative_distance(&x, x64));
+    }
+    assert_eq!(single.mixed_precision_stats().single_factorizations, 1);
+    errors
+}
+
+#[test]
+fn conjugate_gradients_keep_single_precision_where_stationary_refinement_stalls() {
+    // K/G = 1e6: single precision still factorises the block, but its solve is off by
+    // ~2e-1 and stationary refinement gains less than the 4x per step the solver used to
+    // demand (it fell back to double precision here); conjugate gradients with the
+    // single-precision factor as preconditioner get to the tolerance in a few iterations.
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.4999995);
+    let (x64, x, info, stats) = double_and_mixed(&m);
+    let stationary = stationary_refinement_errors(&m, &x64, 2);
+    assert!(stationary[0] > 1e-2, "{stationary:?}");
+    for w in stationary.windows(2) {
+        assert!(
+            w[1] * 4.0 > w[0],
+            "stationary refinement contracts 4x: {stationary:?}"
+        );
+    }
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    assert_eq!(stats.single_factorizations, 1, "{stats:?}");
+    assert_eq!(stats.fallbacks, 0, "{stats:?}");
+    assert!(
+        (3..=MIXED_MAX_ITERATIONS).contains(&stats.refinement_steps),
+        "{stats:?}"
+    );
+    let error = relative_distance(&x, &x64);
+    assert!(error <= MIXED_SOLVE_TOLERANCE, "error {error:e}");
+}
+
+/// Uncoupled pairs of unknowns, pair k with the matrix `[[s², −c s t], [−c s t, t²]]`,
+/// `c = √(1 − pivots[k])`: scaled to a unit diagonal, its Cholesky pivots are 1 and
+/// `pivots[k]` (a pair of stiff springs in series, nearly a mechanism).
+fn near_mechanism_pairs(pivots: &[f64]) -> TestMatrix {
+    let n = 2 * pivots.len();
+    let pairs: Vec<[usize; 2]> = (0..pivots.len()).map(|k| [2 * k, 2 * k + 1]).collect();
+    let pattern = SparsityPattern::from_cliques(n, pairs.iter().map(|e| &e[..]));
+    let mut values = vec![0.0; pattern.nnz()];
+    for (k, &pivot) in pivots.iter().enumerate() {
+        let (s, t) = (1.0 + k as f64 * 0.37, 3.0 - k as f64 * 0.011);
+        let first = pattern.col_ptr[2 * k];
+        assert_eq!(pattern.row_idx[first + 1], 2 * k + 1);
+        values[first] = s * s;
+        values[first + 1] = -(1.0 - pivot).sqrt() * s * t;
+        values[pattern.col_ptr[2 * k + 1]] = t * t;
+    }
+    TestMatrix { pattern, values }
+}
+
+#[test]
+fn single_precision_pivots_of_a_few_roundoffs_are_left_to_the_conjugate_gradients() {
+    // Pivots from 2e-7 to 1e-6 of the unit diagonal (the cell tangents have them down to
+    // 3.5e-7): single precision resolves each to a few units of its roundoff (6e-8), so
+    // M⁻¹A has eigenvalues from about 0.7 to 1.3, which CG takes in a few iterations. The
+    // solver used to refuse such a factor (a floor of 1e-6 on the pivots).
+    let pivots: Vec<f64> = (0..100)
+        .map(|k| 2e-7 * 5f64.powf(k as f64 / 99.0))
+        .collect();
+    let m = near_mechanism_pairs(&pivots);
+    let (x64, x, info, stats) = double_and_mixed(&m);
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    assert_eq!(stats.single_factorizations, 1, "{stats:?}");
+    assert_eq!(stats.fallbacks, 0, "{stats:?}");
+    assert!(stats.refinement_steps >= 3, "{stats:?}");
+    let error = relative_distance(&x, &x64);
+    assert!(error <= MIXED_SOLVE_TOLERANCE, "error {error:e}");
+    // Pivots of half a roundoff: single precision rounds them to zero or nothing it can
+    // use, and the double factorisation takes over.
+    let m = near_mechanism_pairs(&[0.5, 3e-8, 1e-3]);
+    let (x64, x, info, stats) = double_and_mixed(&m);
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    assert_eq!(
+        (stats.single_factorizations, stats.fallbacks),
+        (0, 1),
+        "{stats:?}"
+    );
+    let error = relative_distance(&x, &x64);
+    assert!(
+        error <= 1e-12,
+        "the fallback solves in double precision: {error:e}"
+    );
+}
+
 #[test]
 fn mixed_precision_falls_back_to_double_where_single_precision_cannot_resolve_the_matrix() {
-    // K/G = 5e6: a condition number near 1/ε₃₂, where refinement stalls.
+    // K/G = 5e6: a condition number near 1/ε₃₂; the single-precision Cholesky breaks down.
     let m = hex_elasticity(8, 7, 6, 3.0, 0.4999999);
     let (x64, x, info, stats) = double_and_mixed(&m);
     assert_eq!(info.method, FactorMethod::Cholesky);
+    assert_eq!(stats.single_factorizations, 0, "{stats:?}");
     assert_eq!(stats.fallbacks, 1, "{stats:?}");
     let error = relative_distance(&x, &x64);
     assert!(
         error <= 1e-12,
         "the fallback solves in double precision: {error:e}"
+    );
+}
+
+#[test]
+fn conjugate_gradients_that_run_out_of_iterations_fall_back_to_double_precision() {
+    // The K/G = 1e6 block takes more than 3 iterations (above): with at most 3, the solve
+    // is redone in double precision from its right-hand side, and so are later ones.
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.4999995);
+    let mut double = FaerSparseSolver::new(1);
+    double.analyze(&m.pattern).expect("analyze");
+    let (_, _, x64) = solve(&mut double, &m);
+    let mut mixed = FaerSparseSolver::new(1)
+        .with_mixed_precision(true)
+        .with_mixed_max_iterations(3);
+    mixed.analyze(&m.pattern).expect("analyze");
+    let (info, _, x) = solve(&mut mixed, &m);
+    assert_eq!(info.method, FactorMethod::Cholesky);
+    let stats = mixed.mixed_precision_stats();
+    assert_eq!(
+        (
+            stats.single_factorizations,
+            stats.refinement_steps,
+            stats.fallbacks
+        ),
+        (1, 3, 1),
+        "{stats:?}"
+    );
+    assert_eq!(x, x64, "the fallback is the double-precision solve");
+    let (_, _, x) = solve(&mut mixed, &m);
+    assert_eq!(x, x64);
+    assert_eq!(
+        mixed.mixed_precision_stats(),
+        stats,
+        "double precision from then on"
     );
 }
 
