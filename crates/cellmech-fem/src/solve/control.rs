@@ -128,7 +128,7 @@ pub struct StepControl {
     /// kept factorisation and so take more of them for the same work: 10, after FEBio's
     /// time stepper (`opt_iter` = 11 with its BFGS default). With 5, as for full Newton, a
     /// BFGS step that converged every increment in 6-10 iterations never let them grow
-    /// (docs/performance.md, "When a BFGS increment is easy").
+    /// (docs/performance.md, "The first correction too").
     pub easy_quasi_newton_iterations: usize,
     /// Growth factor after an easy increment.
     pub growth: f64,

@@ -149,7 +149,8 @@ impl Problem {
                 // From an extrapolated start past a filament's snap-through, or at the
                 // re-solve without viscosity, the unbounded correction turned held MT
                 // nodes by radians (docs/performance.md, "The first correction too").
-                if self.work.du_prescribed.iter().all(|&x| x == 0.0) {
+                if conv.max_rotation_step > 0.0 && self.work.du_prescribed.iter().all(|&x| x == 0.0)
+                {
                     step_length = self.rotation_step_limit(conv.max_rotation_step);
                 }
                 for d in 0..n {
