@@ -209,16 +209,9 @@ fn the_apex_stiffens_and_the_tip_follows_the_receptor_fa_in() {
     let site_x = summary["cell"]["protocol"]["site_point"][0]
         .as_f64()
         .unwrap();
-    let curve = std::fs::read_to_string(out.join("curve.csv")).unwrap();
-    let mut lines = curve.lines();
-    let column = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .position(|h| h == "tip_displacement_x_um")
+    let tip_x = *csv_column(&out.join("curve.csv"), "tip_displacement_x_um")
+        .last()
         .unwrap();
-    let last = lines.last().unwrap();
-    let tip_x: f64 = last.split(',').nth(column).unwrap().parse().unwrap();
     eprintln!("FA at x = {site_x} um in the reference; the tip moved {tip_x} um along x");
     assert!(
         site_x.abs() > 5.0 && tip_x * site_x < 0.0 && tip_x.abs() > 1.0,
@@ -234,14 +227,19 @@ fn prestress_negative_pivots(cell: AdherentCell, dir: &str) -> Vec<f64> {
     let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(dir);
     let _ = std::fs::remove_dir_all(&out);
     experiment.run(&out).expect("the coarse prestress runs");
-    let text = std::fs::read_to_string(out.join("increments.csv")).unwrap();
+    csv_column(&out.join("increments.csv"), "negative_pivots")
+}
+
+/// The values of the column `name` of the CSV file at `path`.
+fn csv_column(path: &std::path::Path, name: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let column = lines
         .next()
         .unwrap()
         .split(',')
-        .position(|h| h == "negative_pivots")
-        .expect("a negative_pivots column");
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("{}: no column {name}", path.display()));
     lines
         .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
         .collect()
