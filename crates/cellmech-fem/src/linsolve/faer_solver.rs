@@ -352,8 +352,13 @@ impl FaerSparseSolver {
     }
 
     /// Returns the factor info and whether the matrix proved positive definite.
+    ///
+    /// Always sequential: faer's threaded intranode Bunch–Kaufman cost more than it gained
+    /// on 2 threads (the adherent apex with its indefinite tangents: 122.2 s wall and 14 s of
+    /// system time threaded, 105.4 s sequential; docs/performance.md, "Bunch–Kaufman on one
+    /// thread").
     fn try_lblt(&mut self, values: &[f64]) -> Result<(FactorInfo, bool), String> {
-        let par = self.factor_par(self.analysis.as_ref().ok_or("not analysed")?);
+        let par = Par::Seq;
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         let mat = csc_ref(&a.pattern, values);
         let mut stack = MemStack::new(&mut a.mem);
