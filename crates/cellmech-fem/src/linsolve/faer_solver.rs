@@ -571,8 +571,8 @@ impl LinearSolver for FaerSparseSolver {
         };
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(widest, Spec::default()),
-            symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(widest, Spec::default()),
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default()),
+            // The LDLᵀ always runs sequentially (`try_lblt`).
             symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(Par::Seq, Spec::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
             symbolic.solve_in_place_scratch::<f64>(1, widest),
