@@ -43,9 +43,12 @@
 //! program, multipliers and bonds are moved by the set's hooks (`on_load_state`,
 //! `on_converged`, `on_commit`, `on_rollback`), which the `Term` adapter forwards.
 
+mod tip_surface;
 mod tool;
 
 pub use tool::{Gap, ToolShape};
+
+use tip_surface::{TipPair, ToolPoints};
 
 use crate::dof::DofMap;
 use crate::element::{ElementSet, KernelError};
@@ -85,6 +88,9 @@ struct ContactState {
     equilibrium_pressure: Vec<f64>,
     anchors: Vec<Option<[f64; 3]>>,
     bond_lambda: Vec<[f64; 3]>,
+    /// Second pass: per face of [`RigidContact::with_tool_points_on_faces`], the tool points
+    /// pressing on it (held during Newton, updated in `on_converged`).
+    pairs: Vec<Vec<TipPair>>,
 }
 
 /// A rigid tool in contact with a node set.
@@ -133,6 +139,9 @@ pub struct RigidContact {
     step_start: [f64; 3],
     /// Where the tool is aimed ([`RigidContact::aimed_at`]), if anywhere.
     aim: Option<Aim>,
+    /// The second pass: the tool's own surface points against body faces
+    /// ([`RigidContact::with_tool_points_on_faces`]), if any.
+    tool_points: Option<ToolPoints>,
 }
 
 /// A tool aimed at a body node: at the start of `step` the pilot point is moved across the
@@ -319,6 +328,7 @@ impl RigidContact {
             equilibrium_pressure: vec![0.0; n],
             anchors: vec![None; n],
             bond_lambda: vec![[0.0; 3]; n],
+            pairs: Vec::new(),
         };
         let point_element = (0..node_starts.len() - 1)
             .flat_map(|e| std::iter::repeat_n(e, point_starts[e + 1] - point_starts[e]))
@@ -348,6 +358,7 @@ impl RigidContact {
             started_step: None,
             step_start: [0.0; 3],
             aim: None,
+            tool_points: None,
         };
         contact.committed_positions = (0..n)
             .map(|q| contact.point_position(q, |_, _| 0.0))
@@ -364,6 +375,238 @@ impl RigidContact {
     pub fn with_watched_nodes(mut self, nodes: Vec<(usize, [f64; 3])>) -> Self {
         self.watched = nodes;
         self
+    }
+
+    /// The same contact made two-pass: besides the body's points on the tool, points of the
+    /// tool's own surface about `spacing` apart, out to `extent` from its axis, are kept out
+    /// of the body's `faces` (bilinear quads, corners counter-clockwise seen from outside the
+    /// body, `coordinates[node]` their reference positions). A tool sharper than the faces
+    /// it has stretched then cannot pass between their nodes into the body (module
+    /// `tip_surface`). Each tool point has the penalty of one contact node; a point enters
+    /// a face's pairs when it lies behind the face by less than the tool's radius. Only an
+    /// indenter with an axis (the paraboloid) has surface points.
+    pub fn with_tool_points_on_faces(
+        mut self,
+        faces: &[[usize; 4]],
+        coordinates: &[[f64; 3]],
+        spacing: f64,
+        extent: f64,
+    ) -> Result<Self, ContactError> {
+        let shape_error = |message: String| ContactError::Shape {
+            tool: self.name.clone(),
+            message,
+        };
+        let ToolShape::Paraboloid {
+            apex,
+            axis,
+            tip_radius,
+        } = self.shape
+        else {
+            return Err(shape_error(
+                "only a paraboloid tip has surface points for a two-pass contact".into(),
+            ));
+        };
+        if !(spacing > 0.0 && spacing.is_finite() && extent >= 0.0 && extent.is_finite()) {
+            return Err(shape_error(format!(
+                "expected a tool-point spacing > 0 and an extent >= 0; found {spacing} and \
+                 {extent} um"
+            )));
+        }
+        if self.tool_points.is_some() {
+            return Err(shape_error("the tool already has surface points".into()));
+        }
+        let first_element = self.element_count();
+        for (f, face) in faces.iter().enumerate() {
+            let x: [[f64; 3]; 4] =
+                std::array::from_fn(|a| coordinates.get(face[a]).copied().unwrap_or([f64::NAN; 3]));
+            if x.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(ContactError::Face {
+                    tool: self.name.clone(),
+                    face: f,
+                    message: format!("expected nodes with finite coordinates; found {face:?}"),
+                });
+            }
+            self.nodes.extend_from_slice(face);
+            self.reference.extend_from_slice(&x);
+            self.node_starts.push(self.nodes.len());
+            self.point_starts.push(self.weights.len());
+        }
+        let pairs = vec![Vec::new(); faces.len()];
+        self.trial.pairs = pairs.clone();
+        self.committed.pairs = pairs;
+        self.tool_points = Some(ToolPoints {
+            first_element,
+            points: tip_surface::paraboloid_points(&apex, &axis, tip_radius, spacing, extent),
+            penalty: self.penalty,
+            reach: tip_radius,
+        });
+        Ok(self)
+    }
+
+    /// Number of points on the tool's own surface (0 without a second pass).
+    pub fn tool_point_count(&self) -> usize {
+        self.tool_points.as_ref().map_or(0, |t| t.points.len())
+    }
+
+    /// Number of (face, tool point) pairs of the second pass pressing now (trial state).
+    pub fn tool_pair_count(&self) -> usize {
+        self.trial.pairs.iter().map(Vec::len).sum()
+    }
+
+    /// Current corners of second-pass face `f`.
+    fn tool_face_corners(
+        &self,
+        tool: &ToolPoints,
+        f: usize,
+        u: &[f64],
+        dof_map: &DofMap,
+    ) -> [[f64; 3]; 4] {
+        let first = self.node_starts[tool.first_element + f];
+        std::array::from_fn(|a| {
+            std::array::from_fn(|i| {
+                self.reference[first + a][i] + u[dof_map.dof(self.nodes[first + a], i)]
+            })
+        })
+    }
+
+    /// Current position of tool point `q`.
+    fn tool_point(&self, tool: &ToolPoints, q: usize) -> [f64; 3] {
+        std::array::from_fn(|i| tool.points[q][i] + self.trial.offset[i])
+    }
+
+    /// Second-pass status update at `u` (see `tip_surface`). With `settle` (a converged
+    /// state), each pair's pressure is recorded, pairs that pull or whose point projects onto none of their face's
+    /// triangles leave, and pairs move to the triangle their point now projects into; then
+    /// tool points behind a face by more than the tolerance (and less than the reach) enter.
+    /// Returns how many pairs entered, left or moved.
+    fn update_tool_pairs(&mut self, u: &[f64], dof_map: &DofMap, settle: bool) -> usize {
+        let Some(tool) = self.tool_points.take() else {
+            return 0;
+        };
+        let (eps, tol) = (tool.penalty, self.tolerance);
+        // The tool points' bounding box: faces outside it (with the reach) have no pairs.
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for q in 0..tool.points.len() {
+            let s = self.tool_point(&tool, q);
+            for i in 0..3 {
+                lo[i] = lo[i].min(s[i]);
+                hi[i] = hi[i].max(s[i]);
+            }
+        }
+        let mut changed = 0;
+        let mut pairs = std::mem::take(&mut self.trial.pairs);
+        for (f, face_pairs) in pairs.iter_mut().enumerate() {
+            let x = self.tool_face_corners(&tool, f, u, dof_map);
+            let mut kept = Vec::with_capacity(face_pairs.len());
+            for mut pair in face_pairs.drain(..) {
+                let s = self.tool_point(&tool, pair.point);
+                let gap = tip_surface::triangle_projection(&s, &x, pair.triangle)
+                    .map_or(f64::INFINITY, |(_, g, _)| g);
+                let p = pair.lambda - eps * gap;
+                if settle {
+                    pair.equilibrium_pressure = p.max(0.0);
+                    if !(p >= -eps * tol) {
+                        changed += 1;
+                        continue;
+                    }
+                    match tip_surface::projecting_triangle(&s, &x) {
+                        Some((t, _)) if t == pair.triangle => {}
+                        Some((t, _)) => {
+                            pair.triangle = t;
+                            changed += 1;
+                        }
+                        None => {
+                            changed += 1;
+                            continue;
+                        }
+                    }
+                }
+                kept.push(pair);
+            }
+            let near = (0..3).all(|i| {
+                let (a, b) = x
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
+                        (a.min(c[i]), b.max(c[i]))
+                    });
+                a - tool.reach <= hi[i] && b + tool.reach >= lo[i]
+            });
+            if near {
+                for q in 0..tool.points.len() {
+                    if kept.iter().any(|p| p.point == q) {
+                        continue;
+                    }
+                    let s = self.tool_point(&tool, q);
+                    if let Some((t, g)) = tip_surface::projecting_triangle(&s, &x) {
+                        if g < -tol && g > -tool.reach {
+                            kept.push(TipPair {
+                                point: q,
+                                triangle: t,
+                                lambda: 0.0,
+                                equilibrium_pressure: 0.0,
+                                // Pairs predicted before Newton take their first Uzawa
+                                // update at its converged state.
+                                fresh: settle,
+                            });
+                            changed += 1;
+                        }
+                    }
+                }
+            }
+            *face_pairs = kept;
+        }
+        self.trial.pairs = pairs;
+        self.tool_points = Some(tool);
+        changed
+    }
+
+    /// Uzawa update of the second pass's multipliers at `u`, for the pairs that were
+    /// already pressing before the last status update.
+    fn augment_tool_pairs(&mut self, u: &[f64], dof_map: &DofMap) {
+        let Some(tool) = self.tool_points.take() else {
+            return;
+        };
+        let mut pairs = std::mem::take(&mut self.trial.pairs);
+        for (f, face_pairs) in pairs.iter_mut().enumerate() {
+            if face_pairs.is_empty() {
+                continue;
+            }
+            let x = self.tool_face_corners(&tool, f, u, dof_map);
+            for pair in face_pairs.iter_mut() {
+                if std::mem::take(&mut pair.fresh) {
+                    continue;
+                }
+                let s = self.tool_point(&tool, pair.point);
+                if let Some((_, g, _)) = tip_surface::triangle_projection(&s, &x, pair.triangle) {
+                    pair.lambda = (pair.lambda - tool.penalty * g).max(0.0);
+                }
+            }
+        }
+        self.trial.pairs = pairs;
+        self.tool_points = Some(tool);
+    }
+
+    /// For each second-pass pair: its gap (µm; negative where the tool point lies behind
+    /// its face), its pressure (nN, ≥ 0), the face's outer normal and the tool point.
+    fn tool_pair_states(&self, u: &[f64], dof_map: &DofMap) -> Vec<(f64, f64, [f64; 3], [f64; 3])> {
+        let Some(tool) = &self.tool_points else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for (f, face_pairs) in self.trial.pairs.iter().enumerate() {
+            if face_pairs.is_empty() {
+                continue;
+            }
+            let x = self.tool_face_corners(tool, f, u, dof_map);
+            for pair in face_pairs {
+                let s = self.tool_point(tool, pair.point);
+                if let Some((_, g, n)) = tip_surface::triangle_projection(&s, &x, pair.triangle) {
+                    let p = (pair.lambda - tool.penalty * g).max(0.0);
+                    out.push((g, p, n, s));
+                }
+            }
+        }
+        out
     }
 
     /// How deep the deepest watched node lies inside the tool (µm; 0 when none is inside
@@ -498,6 +741,11 @@ impl RigidContact {
                     None => self.depth_inside(&x),
                 }
             })
+            .chain(
+                self.tool_pair_states(u, dof_map)
+                    .iter()
+                    .map(|&(gap, ..)| -gap),
+            )
             .fold(0.0, f64::max)
     }
 
@@ -556,6 +804,13 @@ impl RigidContact {
                 radius = radius.max(across);
             }
         }
+        for (_, p, _, s) in self.tool_pair_states(u, dof_map) {
+            if p > 0.0 {
+                let d: [f64; 3] = std::array::from_fn(|i| s[i] - centre[i]);
+                let along = dot(&d, &axis);
+                radius = radius.max((dot(&d, &d) - along * along).max(0.0).sqrt());
+            }
+        }
         Some(radius)
     }
 
@@ -590,7 +845,14 @@ impl RigidContact {
                 worst = worst.max(sum / weight);
             }
         }
-        worst
+        // A pair violates by its penetration, and by its gap where it still presses (a
+        // multiplier grown larger than the contact force holds the face off the tool: the
+        // tool's other points shared the load in the augmentations before they left).
+        self.tool_pair_states(u, dof_map)
+            .iter()
+            .fold(worst, |w, &(gap, p, ..)| {
+                w.max(if p > 0.0 { gap.abs() } else { -gap })
+            })
     }
 
     /// Contact-status check at a converged Newton state: records each active node's
@@ -626,7 +888,7 @@ impl RigidContact {
                 changed += 1;
             }
         }
-        changed
+        changed + self.update_tool_pairs(u, dof_map, true)
     }
 
     /// Status predictor for the increment about to be attempted: free points that the tool,
@@ -648,6 +910,7 @@ impl RigidContact {
                 }
             }
         }
+        self.update_tool_pairs(u, dof_map, false);
     }
 
     /// Total force the tool exerts on the body (nN).
@@ -659,6 +922,12 @@ impl RigidContact {
                 for i in 0..3 {
                     total[i] -= r[i];
                 }
+            }
+        }
+        // A tool point pressing with p on a face of outer normal n pushes the body by −p n.
+        for (_, p, n, _) in self.tool_pair_states(u, dof_map) {
+            for i in 0..3 {
+                total[i] -= p * n[i];
             }
         }
         total
@@ -719,6 +988,11 @@ impl RigidContact {
         r: &mut [f64],
         k: Option<&mut [f64]>,
     ) -> Result<f64, KernelError> {
+        if let Some(tool) = &self.tool_points {
+            if e >= tool.first_element {
+                return self.tool_face_evaluate(tool, e - tool.first_element, u, r, k);
+            }
+        }
         let count = self.node_starts[e + 1] - self.node_starts[e];
         let n = 3 * count;
         r[..n].fill(0.0);
@@ -748,6 +1022,66 @@ impl RigidContact {
                                 k[(3 * a + i) * n + 3 * b + j] += wab * kq[i][j];
                             }
                         }
+                    }
+                }
+            }
+        }
+        Ok(energy)
+    }
+}
+
+impl RigidContact {
+    /// Energy, residual and tangent of second-pass face `f` (its 12 translations): the sum
+    /// over the tool points pressing on it of the pair law (module `tip_surface`).
+    fn tool_face_evaluate(
+        &self,
+        tool: &ToolPoints,
+        f: usize,
+        u: &[f64],
+        r: &mut [f64],
+        k: Option<&mut [f64]>,
+    ) -> Result<f64, KernelError> {
+        const N: usize = 12;
+        r[..N].fill(0.0);
+        let mut k = k;
+        if let Some(k) = k.as_deref_mut() {
+            k[..N * N].fill(0.0);
+        }
+        let pairs = &self.trial.pairs[f];
+        if pairs.is_empty() {
+            return Ok(0.0);
+        }
+        let first = self.node_starts[tool.first_element + f];
+        let x: [[f64; 3]; 4] = std::array::from_fn(|a| {
+            std::array::from_fn(|i| self.reference[first + a][i] + u[3 * a + i])
+        });
+        let eps = tool.penalty;
+        let mut energy = 0.0;
+        for pair in pairs {
+            let s = self.tool_point(tool, pair.point);
+            let g = tip_surface::triangle_gap_derivatives(&s, &x, pair.triangle);
+            if !g.v.is_finite() {
+                // The triangle has collapsed: the face is inverted.
+                return Err(KernelError::InvertedElement {
+                    qp: pair.triangle,
+                    det_f: 0.0,
+                });
+            }
+            let p = pair.lambda - eps * g.v;
+            energy += p * p / (2.0 * eps);
+            for (ri, gi) in r[..N].iter_mut().zip(g.g) {
+                *ri -= p * gi;
+            }
+            if let Some(k) = k.as_deref_mut() {
+                let p_curvature = match self.curvature_tangent {
+                    CurvatureTangent::Lagged if !self.near_equilibrium => {
+                        p.min(pair.equilibrium_pressure)
+                    }
+                    CurvatureTangent::Lagged | CurvatureTangent::Consistent => p,
+                };
+                for i in 0..N {
+                    for j in 0..N {
+                        k[i * N + j] += eps * g.g[i] * g.g[j] - p_curvature * g.hessian(i, j);
                     }
                 }
             }
@@ -873,6 +1207,7 @@ impl ElementSet for RigidContact {
                 None => {}
             }
         }
+        self.augment_tool_pairs(u, dof_map);
         let message = format!(
             "{changed} contact points changed status, largest violation {violation:.3e} um \
              (tolerance {:.3e} um)",

@@ -573,3 +573,209 @@ fn a_watched_node_inside_the_tool_is_measured_not_pushed() {
     let moved = [0.0, 0.0, 0.0, 0.0, 0.0, -0.2];
     assert_eq!(watched.deepest_watched_node(&moved, &map), 0.0);
 }
+
+/// A unit square face at z = 0 (outer normal +z, the body below), each corner on a vertical
+/// spring (k = 2 nN/um, rest length 1 um) to an anchor 1 um below it, and a paraboloid tip
+/// of radius 0.05 um, axis −z, its apex touching the face's centre, pushed down by `depth`.
+/// With `two_pass` the tip's surface points also press on the face.
+fn face_on_springs_under_a_sharp_tip(depth: f64, two_pass: bool) -> Problem {
+    let corners = [
+        [-0.5, -0.5, 0.0],
+        [0.5, -0.5, 0.0],
+        [0.5, 0.5, 0.0],
+        [-0.5, 0.5, 0.0],
+    ];
+    let mut coordinates = corners.to_vec();
+    coordinates.extend(corners.iter().map(|c| [c[0], c[1], -1.0]));
+    let springs = SpringSet {
+        name: "springs".into(),
+        nodes: (0..4).map(|a| [a, a + 4]).collect(),
+        reference: (0..4).map(|a| [corners[a], coordinates[a + 4]]).collect(),
+        stiffness: vec![2.0; 4],
+        rest_length: vec![1.0; 4],
+    };
+    let tip = ToolShape::Paraboloid {
+        apex: [0.0, 0.0, 0.0],
+        axis: [0.0, 0.0, -1.0],
+        tip_radius: 0.05,
+    };
+    let contact = RigidContact::new(
+        "tip",
+        tip,
+        ContactKind::Frictionless,
+        (0..4).collect(),
+        corners.to_vec(),
+        50.0,
+        1e-7,
+        vec![[0.0, 0.0, -depth]],
+    )
+    .unwrap();
+    let contact = if two_pass {
+        contact
+            .with_tool_points_on_faces(&[[0, 1, 2, 3]], &coordinates, 0.0125, 0.1)
+            .unwrap()
+    } else {
+        contact
+    };
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
+    Problem::new(
+        DofMap::translational(8),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap()
+}
+
+/// The anchors held, the face's corners free only vertically.
+fn face_supports() -> Vec<(usize, Motion)> {
+    let mut fixed: Vec<(usize, Motion)> = (12..24).map(|d| (d, Motion::Hold)).collect();
+    for a in 0..4 {
+        fixed.push((3 * a, Motion::Hold));
+        fixed.push((3 * a + 1, Motion::Hold));
+    }
+    fixed
+}
+
+#[test]
+fn a_tip_sharper_than_a_face_passes_through_it_with_node_contact_and_not_with_two_passes() {
+    let depth = 0.1;
+    // Node contact: the corners lie 0.5√2 um from the axis, where the 0.05 um tip is 5 um
+    // high; the tip passes through the face and carries nothing.
+    let mut p = face_on_springs_under_a_sharp_tip(depth, false);
+    let mut step = Step::new("push");
+    step.prescribed = face_supports();
+    p.run_step(&step, &mut crate::solve::NullObserver).unwrap();
+    let out = contact_term(&p);
+    assert_eq!(value(&out, "tip_force_z_nN"), 0.0);
+    assert!(p.u()[2].abs() < 1e-12);
+    // Two passes: the tip's apex point pushes the face's centre down by the depth; by
+    // symmetry the face moves down flat, and the four springs carry 4 k d = 0.8 nN.
+    let mut p = face_on_springs_under_a_sharp_tip(depth, true);
+    p.run_step(&step, &mut crate::solve::NullObserver).unwrap();
+    let out = contact_term(&p);
+    let force = value(&out, "tip_force_z_nN");
+    assert!(
+        (force + 4.0 * 2.0 * depth).abs() < 1e-5,
+        "force {force} u {:?} out {out:?}",
+        p.u()
+    );
+    for a in 0..4 {
+        let w = p.u()[3 * a + 2];
+        assert!((w + depth).abs() < 1e-6, "corner {a} moved {w}");
+    }
+    assert!(value(&out, "tip_max_penetration_um") <= 1e-7);
+    // The contact radius is that of the tool points pressing (the apex only: the face is
+    // flat and the tip's other points lie above it).
+    assert!(value(&out, "tip_contact_radius_um") < 1e-9);
+}
+
+#[test]
+fn the_second_pass_tangent_is_the_derivative_of_its_residual() {
+    // A skewed, warped face with the tip pressed into it off its centre, so that several
+    // tool points press on several of its four triangles.
+    let x = [
+        [-0.4, -0.5, 0.02],
+        [0.55, -0.45, -0.03],
+        [0.5, 0.6, 0.05],
+        [-0.45, 0.4, 0.0],
+    ];
+    let tip = ToolShape::Paraboloid {
+        apex: [0.08, -0.05, 0.1],
+        axis: [0.0, 0.0, -1.0],
+        tip_radius: 0.2,
+    };
+    let mut c = RigidContact::new(
+        "tip",
+        tip,
+        ContactKind::Frictionless,
+        vec![0],
+        vec![x[0]],
+        30.0,
+        1e-9,
+        vec![[0.0, 0.0, -0.16]],
+    )
+    .unwrap()
+    .with_tool_points_on_faces(&[[0, 1, 2, 3]], &x, 0.05, 0.4)
+    .unwrap()
+    .with_curvature_tangent(CurvatureTangent::Consistent);
+    assert!(c.tool_point_count() > 100);
+    c.set_load_state(&LoadState {
+        step_index: 0,
+        step_time: 1.0,
+    });
+    let map = DofMap::translational(4);
+    let u0 = vec![0.0; 12];
+    c.predict(&u0, &map);
+    let pairs = c.tool_pair_count();
+    assert!(pairs > 5, "{pairs} pairs");
+    let triangles: std::collections::HashSet<usize> =
+        c.trial.pairs[0].iter().map(|p| p.triangle).collect();
+    assert!(triangles.len() >= 3, "{triangles:?}");
+    // Multipliers as an augmentation would leave them.
+    for (i, pair) in c.trial.pairs[0].iter_mut().enumerate() {
+        pair.lambda = 0.01 * (i % 3) as f64;
+    }
+    // A state off the reference, the face element is element 1 (after the node).
+    let u: Vec<f64> = (0..12)
+        .map(|i| 0.003 * ((i * 7 % 5) as f64 - 2.0))
+        .collect();
+    let (mut r, mut k) = ([0.0; 12], vec![0.0; 144]);
+    let energy = c.evaluate(1, &u, &mut r, Some(&mut k)).unwrap();
+    assert!(energy > 0.0);
+    let h = 1e-6;
+    let mut worst: f64 = 0.0;
+    let scale = k.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for j in 0..12 {
+        let (mut up, mut down) = (u.clone(), u.clone());
+        up[j] += h;
+        down[j] -= h;
+        let (mut rp, mut rm) = ([0.0; 12], [0.0; 12]);
+        let ep = c.evaluate(1, &up, &mut rp, None).unwrap();
+        let em = c.evaluate(1, &down, &mut rm, None).unwrap();
+        // The residual is the energy's gradient…
+        let de = (ep - em) / (2.0 * h);
+        assert!(
+            (de - r[j]).abs() < 1e-6 * (1.0 + r[j].abs()),
+            "dof {j}: {de} vs {}",
+            r[j]
+        );
+        // …and the tangent the residual's.
+        for i in 0..12 {
+            let fd = (rp[i] - rm[i]) / (2.0 * h);
+            worst = worst.max((fd - k[i * 12 + j]).abs());
+        }
+    }
+    assert!(worst < 1e-6 * scale, "worst {worst:.3e} of {scale:.3e}");
+    // The force on the body is the sum of the face nodes' residual, reversed.
+    let map12 = DofMap::translational(4);
+    let mut global = vec![0.0; 12];
+    global.copy_from_slice(&u);
+    let f = c.force_on_body(&global, &map12);
+    for i in 0..3 {
+        let sum: f64 = (0..4).map(|a| r[3 * a + i]).sum();
+        assert!(
+            (f[i] + sum).abs() < 1e-9 * (1.0 + sum.abs()),
+            "{f:?} vs {sum}"
+        );
+    }
+    // Only a paraboloid has surface points.
+    let plate = ToolShape::Plate {
+        point: [0.0; 3],
+        normal: [0.0, 0.0, 1.0],
+    };
+    let err = RigidContact::new(
+        "plate",
+        plate,
+        ContactKind::Frictionless,
+        vec![0],
+        vec![x[0]],
+        1.0,
+        1e-9,
+        vec![],
+    )
+    .unwrap()
+    .with_tool_points_on_faces(&[[0, 1, 2, 3]], &x, 0.05, 0.4)
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("paraboloid"), "{err}");
+}

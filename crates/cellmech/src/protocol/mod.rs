@@ -432,6 +432,7 @@ impl PoleTest {
                 curvature_tangent: Default::default(),
                 aim: None,
                 watch: Vec::new(),
+                tool_points: None,
             });
             handle
         });
