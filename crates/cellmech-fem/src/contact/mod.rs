@@ -434,12 +434,12 @@ impl RigidContact {
         let pairs = vec![Vec::new(); faces.len()];
         self.trial.pairs = pairs.clone();
         self.committed.pairs = pairs;
-        self.tool_points = Some(ToolPoints {
+        self.tool_points = Some(ToolPoints::new(
             first_element,
-            points: tip_surface::paraboloid_points(&apex, &axis, tip_radius, spacing, extent),
-            penalty: self.penalty,
-            reach: tip_radius,
-        });
+            tip_surface::paraboloid_points(&apex, &axis, tip_radius, spacing, extent),
+            self.penalty,
+            tip_radius,
+        ));
         Ok(self)
     }
 
@@ -484,76 +484,110 @@ impl RigidContact {
             return 0;
         };
         let (eps, tol) = (tool.penalty, self.tolerance);
-        // The tool points' bounding box: faces outside it (with the reach) have no pairs.
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for q in 0..tool.points.len() {
-            let s = self.tool_point(&tool, q);
-            for i in 0..3 {
-                lo[i] = lo[i].min(s[i]);
-                hi[i] = hi[i].max(s[i]);
-            }
-        }
         let mut changed = 0;
         let mut pairs = std::mem::take(&mut self.trial.pairs);
+        let corners: Vec<[[f64; 3]; 4]> = (0..pairs.len())
+            .map(|f| self.tool_face_corners(&tool, f, u, dof_map))
+            .collect();
+        // Boxes of the faces, grown by the reach.
+        let boxes: Vec<([f64; 3], [f64; 3])> = corners
+            .iter()
+            .map(|x| {
+                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for c in x {
+                    for i in 0..3 {
+                        lo[i] = lo[i].min(c[i] - tool.reach);
+                        hi[i] = hi[i].max(c[i] + tool.reach);
+                    }
+                }
+                (lo, hi)
+            })
+            .collect();
+        // Pairs whose point has slid off their face, to be handed to the face it is on now.
+        let mut sliding: Vec<(usize, TipPair)> = Vec::new();
         for (f, face_pairs) in pairs.iter_mut().enumerate() {
-            let x = self.tool_face_corners(&tool, f, u, dof_map);
+            if !settle || face_pairs.is_empty() {
+                continue;
+            }
+            let x = &corners[f];
             let mut kept = Vec::with_capacity(face_pairs.len());
             for mut pair in face_pairs.drain(..) {
                 let s = self.tool_point(&tool, pair.point);
-                let gap = tip_surface::triangle_projection(&s, &x, pair.triangle)
-                    .map_or(f64::INFINITY, |(_, g, _)| g);
+                let projection = tip_surface::triangle_projection(&s, x, pair.triangle);
+                let gap = projection.map_or(f64::INFINITY, |(_, g, _)| g);
                 let p = pair.lambda - eps * gap;
-                if settle {
-                    pair.equilibrium_pressure = p.max(0.0);
-                    if !(p >= -eps * tol) {
-                        changed += 1;
-                        continue;
-                    }
-                    match tip_surface::projecting_triangle(&s, &x) {
-                        Some((t, _)) if t == pair.triangle => {}
-                        Some((t, _)) => {
-                            pair.triangle = t;
-                            changed += 1;
-                        }
+                pair.equilibrium_pressure = p.max(0.0);
+                if !(p >= -eps * tol) {
+                    changed += 1;
+                    continue;
+                }
+                let keeps = projection
+                    .is_some_and(|(bary, ..)| tip_surface::within(&bary, tip_surface::KEEP_MARGIN));
+                if !keeps {
+                    changed += 1;
+                    match tip_surface::projecting_triangle(&s, x) {
+                        Some((t, _)) => pair.triangle = t,
                         None => {
-                            changed += 1;
+                            sliding.push((f, pair));
                             continue;
                         }
                     }
                 }
                 kept.push(pair);
             }
-            let near = (0..3).all(|i| {
-                let (a, b) = x
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
-                        (a.min(c[i]), b.max(c[i]))
-                    });
-                a - tool.reach <= hi[i] && b + tool.reach >= lo[i]
+            *face_pairs = kept;
+        }
+        // A point that has slid onto another face keeps pressing there with its multiplier
+        // (where that face already has the point, with the larger of the two): the load it
+        // carried is not dropped and picked up again from the penalty alone.
+        for (from, pair) in sliding {
+            let s = self.tool_point(&tool, pair.point);
+            let onto = (0..corners.len()).find_map(|f| {
+                let (lo, hi) = &boxes[f];
+                if f == from || (0..3).any(|i| s[i] < lo[i] || s[i] > hi[i]) {
+                    return None;
+                }
+                let (t, g) = tip_surface::projecting_triangle(&s, &corners[f])?;
+                (g.abs() < tool.reach).then_some((f, t))
             });
-            if near {
-                for q in 0..tool.points.len() {
-                    if kept.iter().any(|p| p.point == q) {
-                        continue;
-                    }
-                    let s = self.tool_point(&tool, q);
-                    if let Some((t, g)) = tip_surface::projecting_triangle(&s, &x) {
-                        if g < -tol && g > -tool.reach {
-                            kept.push(TipPair {
-                                point: q,
-                                triangle: t,
-                                lambda: 0.0,
-                                equilibrium_pressure: 0.0,
-                                // Pairs predicted before Newton take their first Uzawa
-                                // update at its converged state.
-                                fresh: settle,
-                            });
-                            changed += 1;
-                        }
-                    }
+            if let Some((f, t)) = onto {
+                match pairs[f].iter_mut().find(|p| p.point == pair.point) {
+                    Some(existing) => existing.lambda = existing.lambda.max(pair.lambda),
+                    None => pairs[f].push(TipPair {
+                        triangle: t,
+                        ..pair
+                    }),
                 }
             }
-            *face_pairs = kept;
+        }
+        // Tool points that have gone behind a face enter its pairs.
+        let offset = self.trial.offset;
+        for (f, face_pairs) in pairs.iter_mut().enumerate() {
+            let x = &corners[f];
+            let (lo, hi) = &boxes[f];
+            tool.points_near(lo, hi, &offset, |q| {
+                if face_pairs.iter().any(|p| p.point == q) {
+                    return;
+                }
+                let s: [f64; 3] = std::array::from_fn(|i| tool.points[q][i] + offset[i]);
+                if (0..3).any(|i| s[i] < lo[i] || s[i] > hi[i]) {
+                    return;
+                }
+                if let Some((t, g)) = tip_surface::projecting_triangle(&s, x) {
+                    if g < -tol && g > -tool.reach {
+                        face_pairs.push(TipPair {
+                            point: q,
+                            triangle: t,
+                            lambda: 0.0,
+                            equilibrium_pressure: 0.0,
+                            // Pairs predicted before Newton take their first Uzawa update
+                            // at its converged state.
+                            fresh: settle,
+                        });
+                        changed += 1;
+                    }
+                }
+            });
         }
         self.trial.pairs = pairs;
         self.tool_points = Some(tool);

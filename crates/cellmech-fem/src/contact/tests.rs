@@ -779,3 +779,85 @@ fn the_second_pass_tangent_is_the_derivative_of_its_residual() {
     .to_string();
     assert!(err.contains("paraboloid"), "{err}");
 }
+
+/// A grid of `n` × `n` faces of side `h` at z = 0 (centred on the axis), each node on a
+/// vertical spring (k = `k` nN/um) to an anchor 1 um below, held laterally; a paraboloid
+/// tip of radius R = 0.2 um pushed down by `depth`, one pass or two.
+fn grid_under_tip(n: usize, h: f64, k: f64, depth: f64, two_pass: bool) -> (Problem, Vec<(usize, Motion)>) {
+    let m = n + 1;
+    let half = 0.5 * h * n as f64;
+    let mut x = Vec::new();
+    for j in 0..m {
+        for i in 0..m {
+            x.push([i as f64 * h - half, j as f64 * h - half, 0.0]);
+        }
+    }
+    let surface = x.len();
+    for a in 0..surface {
+        x.push([x[a][0], x[a][1], -1.0]);
+    }
+    let springs = SpringSet {
+        name: "springs".into(),
+        nodes: (0..surface).map(|a| [a, a + surface]).collect(),
+        reference: (0..surface).map(|a| [x[a], x[a + surface]]).collect(),
+        stiffness: vec![k; surface],
+        rest_length: vec![1.0; surface],
+    };
+    let mut faces = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * m + i;
+            faces.push([a, a + 1, a + m + 1, a + m]);
+        }
+    }
+    let tip = ToolShape::Paraboloid {
+        apex: [0.013, 0.007, 0.0],
+        axis: [0.0, 0.0, -1.0],
+        tip_radius: 0.2,
+    };
+    let contact = RigidContact::new(
+        "tip",
+        tip,
+        ContactKind::Frictionless,
+        (0..surface).collect(),
+        x[..surface].to_vec(),
+        50.0 * k,
+        1e-6,
+        vec![[0.0, 0.0, -depth]],
+    )
+    .unwrap();
+    let contact = if two_pass {
+        contact.with_tool_points_on_faces(&faces, &x, 0.05, 0.4).unwrap()
+    } else {
+        contact
+    };
+    let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
+    let problem = Problem::new(
+        DofMap::translational(x.len()),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut fixed: Vec<(usize, Motion)> = (3 * surface..6 * surface).map(|d| (d, Motion::Hold)).collect();
+    for a in 0..surface {
+        fixed.push((3 * a, Motion::Hold));
+        fixed.push((3 * a + 1, Motion::Hold));
+    }
+    (problem, fixed)
+}
+
+#[test]
+fn two_pass_grid_probe() {
+    for (n, h) in [(8, 0.1), (16, 0.05)] {
+        for two in [false, true] {
+            let (mut p, fixed) = grid_under_tip(n, h, 0.5 * h * h * 100.0, 0.1, two);
+            let mut step = Step::new("push");
+            step.prescribed = fixed;
+            step.control.initial_increment = 0.1;
+            step.control.max_increment = 0.1;
+            let r = p.run_step(&step, &mut crate::solve::NullObserver);
+            let out = contact_term(&p);
+            eprintln!("n {n} h {h} two {two}: {:?} force {} pen {}", r.is_ok(), value(&out, "tip_force_z_nN"), value(&out, "tip_max_penetration_um"));
+        }
+    }
+}

@@ -25,9 +25,11 @@
 //! **Status.** As for the nodes: pairs are held during Newton and updated at a converged
 //! state. A tool point enters a face's pairs when it projects inside one of the face's
 //! triangles and lies behind it by more than the tolerance (and less than the reach, so a
-//! face on the far side of the body is never paired); a pair moves to the face's triangle
-//! the point now projects into, and leaves when the point projects into none of them or
-//! pulls harder than ε·tolerance.
+//! face on the far side of the body is never paired). A pair keeps its triangle while the
+//! point projects within [`KEEP_MARGIN`] of it, then moves to the face's triangle the point
+//! projects into, and leaves when it projects into none of them or pulls harder than
+//! ε·tolerance: the margin stops a point on an edge from cycling between the planes on
+//! either side.
 
 use crate::math::vec3::{cross, dot, sub};
 use crate::math::{HyperDualN, Scalar};
@@ -61,6 +63,58 @@ pub(super) struct ToolPoints {
     pub penalty: f64,
     /// Deepest a point may lie behind a face to enter a pair (µm).
     pub reach: f64,
+    /// The points binned in cubes of side `cell` (reference position): the search for the
+    /// points near a face visits the cubes its box meets, not every point.
+    grid: std::collections::HashMap<[i64; 3], Vec<usize>>,
+    cell: f64,
+}
+
+impl ToolPoints {
+    /// The points, binned in cubes of side `reach`.
+    pub fn new(first_element: usize, points: Vec<[f64; 3]>, penalty: f64, reach: f64) -> Self {
+        let cell = reach;
+        let mut grid: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
+        for (q, x) in points.iter().enumerate() {
+            grid.entry(x.map(|v| (v / cell).floor() as i64))
+                .or_default()
+                .push(q);
+        }
+        ToolPoints {
+            first_element,
+            points,
+            penalty,
+            reach,
+            grid,
+            cell,
+        }
+    }
+
+    /// Calls `visit` with every point that may lie in the box `lo..hi` when the tool is
+    /// displaced by `offset` (the points of every cube the box meets).
+    pub fn points_near(
+        &self,
+        lo: &[f64; 3],
+        hi: &[f64; 3],
+        offset: &[f64; 3],
+        mut visit: impl FnMut(usize),
+    ) {
+        let a: [i64; 3] = std::array::from_fn(|i| ((lo[i] - offset[i]) / self.cell).floor() as i64);
+        let b: [i64; 3] = std::array::from_fn(|i| ((hi[i] - offset[i]) / self.cell).floor() as i64);
+        if (0..3).any(|i| b[i] - a[i] > 10_000) {
+            // A box far larger than the tool: every point.
+            (0..self.points.len()).for_each(visit);
+            return;
+        }
+        for i in a[0]..=b[0] {
+            for j in a[1]..=b[1] {
+                for k in a[2]..=b[2] {
+                    if let Some(points) = self.grid.get(&[i, j, k]) {
+                        points.iter().copied().for_each(&mut visit);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The corners of triangle `t` of a face with corners `x`: corner t, corner t+1, centroid.
@@ -103,7 +157,18 @@ pub(super) fn triangle_projection(
 /// Whether barycentric coordinates lie inside their triangle (edges included, with a
 /// round-off margin so a point on an edge between two triangles belongs to both).
 pub(super) fn inside(bary: &[f64; 3]) -> bool {
-    bary.iter().all(|&w| w >= -1e-9)
+    within(bary, 1e-9)
+}
+
+/// How far beyond its triangle's edges (in barycentric coordinates) a pressing point keeps
+/// its pair: a point that enters strictly inside a triangle and leaves only this far out
+/// cannot cycle between two triangles or faces whose planes push it back across the edge
+/// (it pressed on both sides of the edge for a while instead).
+pub(super) const KEEP_MARGIN: f64 = 0.1;
+
+/// Whether barycentric coordinates lie within `margin` of their triangle.
+pub(super) fn within(bary: &[f64; 3], margin: f64) -> bool {
+    bary.iter().all(|&w| w >= -margin)
 }
 
 /// The first triangle of the face with corners `x` that `s` projects into, with its gap.
