@@ -542,15 +542,18 @@ impl RigidContact {
         // carried is not dropped and picked up again from the penalty alone.
         for (from, pair) in sliding {
             let s = self.tool_point(&tool, pair.point);
-            let onto = (0..corners.len()).find_map(|f| {
-                let (lo, hi) = &boxes[f];
-                if f == from || (0..3).any(|i| s[i] < lo[i] || s[i] > hi[i]) {
-                    return None;
-                }
-                let (t, g) = tip_surface::projecting_triangle(&s, &corners[f])?;
-                (g.abs() < tool.reach).then_some((f, t))
-            });
-            if let Some((f, t)) = onto {
+            // The face it is over now: of those it projects into, the nearest.
+            let onto = (0..corners.len())
+                .filter_map(|f| {
+                    let (lo, hi) = &boxes[f];
+                    if f == from || (0..3).any(|i| s[i] < lo[i] || s[i] > hi[i]) {
+                        return None;
+                    }
+                    let (t, g) = tip_surface::projecting_triangle(&s, &corners[f])?;
+                    (g.abs() < tool.reach).then_some((f, t, g.abs()))
+                })
+                .min_by(|a, b| a.2.total_cmp(&b.2));
+            if let Some((f, t, _)) = onto {
                 match pairs[f].iter_mut().find(|p| p.point == pair.point) {
                     Some(existing) => existing.lambda = existing.lambda.max(pair.lambda),
                     None => pairs[f].push(TipPair {
