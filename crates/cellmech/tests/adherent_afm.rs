@@ -104,23 +104,27 @@ fn bad_sites_and_tips_are_clear_errors_before_solving() {
     assert!(e.contains("adherent"), "{e}");
 }
 
+/// The tip tool of the coarse cell's analysis under `protocol`, with the mesh's nodes.
+fn tip_tool(protocol: AfmIndentation) -> (cellmech::model::tools::ToolSpec, Vec<[f64; 3]>) {
+    let experiment = Experiment::new(
+        CellModel::Adherent(coarse_cell()),
+        Protocol::AfmIndentation(protocol),
+    );
+    let analysis = experiment.analysis().unwrap();
+    let tip = analysis
+        .model
+        .tools
+        .iter()
+        .find(|t| t.name == "tip")
+        .unwrap()
+        .clone();
+    (tip, analysis.model.mesh.nodes.clone())
+}
+
 #[test]
 fn the_contact_tangent_key_reaches_the_tip() {
     use cellmech_fem::contact::CurvatureTangent;
-    let tip_tangent = |protocol: AfmIndentation| {
-        let experiment = Experiment::new(
-            CellModel::Adherent(coarse_cell()),
-            Protocol::AfmIndentation(protocol),
-        );
-        let analysis = experiment.analysis().unwrap();
-        let tip = analysis
-            .model
-            .tools
-            .iter()
-            .find(|t| t.name == "tip")
-            .unwrap();
-        tip.curvature_tangent
-    };
+    let tip_tangent = |protocol: AfmIndentation| tip_tool(protocol).0.curvature_tangent;
     assert_eq!(
         tip_tangent(AfmIndentation::default()),
         CurvatureTangent::Lagged
@@ -135,21 +139,7 @@ fn the_contact_tangent_key_reaches_the_tip() {
 /// from outside: the normal points away from the cell's interior, up at the apex).
 #[test]
 fn the_two_pass_contact_reaches_the_tip_with_outward_faces() {
-    let tool = |protocol: AfmIndentation| {
-        let experiment = Experiment::new(
-            CellModel::Adherent(coarse_cell()),
-            Protocol::AfmIndentation(protocol),
-        );
-        let analysis = experiment.analysis().unwrap();
-        let tip = analysis
-            .model
-            .tools
-            .iter()
-            .find(|t| t.name == "tip")
-            .unwrap()
-            .clone();
-        (tip, analysis.model.mesh.nodes.clone())
-    };
+    let tool = tip_tool;
     let (one, _) = tool(AfmIndentation::default());
     assert!(one.tool_points.is_none());
     let mut two = AfmIndentation::default();
