@@ -104,27 +104,23 @@ fn bad_sites_and_tips_are_clear_errors_before_solving() {
     assert!(e.contains("adherent"), "{e}");
 }
 
-/// The tip tool of the coarse cell's analysis under `protocol`, with the mesh's nodes.
-fn tip_tool(protocol: AfmIndentation) -> (cellmech::model::tools::ToolSpec, Vec<[f64; 3]>) {
-    let experiment = Experiment::new(
-        CellModel::Adherent(coarse_cell()),
-        Protocol::AfmIndentation(protocol),
-    );
-    let analysis = experiment.analysis().unwrap();
-    let tip = analysis
-        .model
-        .tools
-        .iter()
-        .find(|t| t.name == "tip")
-        .unwrap()
-        .clone();
-    (tip, analysis.model.mesh.nodes.clone())
-}
-
 #[test]
 fn the_contact_tangent_key_reaches_the_tip() {
     use cellmech_fem::contact::CurvatureTangent;
-    let tip_tangent = |protocol: AfmIndentation| tip_tool(protocol).0.curvature_tangent;
+    let tip_tangent = |protocol: AfmIndentation| {
+        let experiment = Experiment::new(
+            CellModel::Adherent(coarse_cell()),
+            Protocol::AfmIndentation(protocol),
+        );
+        let analysis = experiment.analysis().unwrap();
+        let tip = analysis
+            .model
+            .tools
+            .iter()
+            .find(|t| t.name == "tip")
+            .unwrap();
+        tip.curvature_tangent
+    };
     assert_eq!(
         tip_tangent(AfmIndentation::default()),
         CurvatureTangent::Lagged
@@ -132,38 +128,6 @@ fn the_contact_tangent_key_reaches_the_tip() {
     let mut consistent = AfmIndentation::default();
     consistent.contact_tangent = CurvatureTangent::Consistent;
     assert_eq!(tip_tangent(consistent), CurvatureTangent::Consistent);
-}
-
-/// `contact = "two-pass"` gives the tip its surface points against the dome's faces near
-/// the site, every face turned to face out of the cell (its corners counter-clockwise seen
-/// from outside: the normal points away from the cell's interior, up at the apex).
-#[test]
-fn the_two_pass_contact_reaches_the_tip_with_outward_faces() {
-    let tool = tip_tool;
-    let (one, _) = tool(AfmIndentation::default());
-    assert!(one.tool_points.is_none());
-    let mut two = AfmIndentation::default();
-    two.two_pass = true;
-    two.tip_points_extent = 0.1;
-    let (tip, nodes) = tool(two);
-    let points = tip.tool_points.expect("a second pass");
-    assert_eq!(points.extent, 0.1);
-    assert!(points.spacing > 0.0 && points.spacing < 0.2);
-    assert!(points.faces.len() > 20, "{} faces", points.faces.len());
-    // The site is the apex, over the dome's top (the cell's centre line is x = y = 0): every
-    // face near it faces up.
-    for f in &points.faces {
-        let x = f.map(|n| nodes[n]);
-        let (d1, d2) = (
-            [0, 1, 2].map(|i| x[2][i] - x[0][i]),
-            [0, 1, 2].map(|i| x[3][i] - x[1][i]),
-        );
-        let normal_z = d1[0] * d2[1] - d1[1] * d2[0];
-        let centre: [f64; 3] = std::array::from_fn(|i| 0.25 * x.iter().map(|p| p[i]).sum::<f64>());
-        if centre[0].hypot(centre[1]) < 1.0 {
-            assert!(normal_z > 0.0, "face {f:?} at {centre:?} faces down");
-        }
-    }
 }
 
 /// Runs the coarse cell's AFM test at `site` to `depth` (µm) and returns the results.

@@ -57,20 +57,6 @@ pub struct ToolSpec {
     /// (`RigidContact::with_watched_nodes`; the curve gets `<tool>_deepest_node_inside_um`);
     /// empty: none.
     pub watch: Vec<usize>,
-    /// The second pass of a two-pass contact (`RigidContact::with_tool_points_on_faces`):
-    /// the tool's own surface points kept out of these body faces; `None`: one pass.
-    pub tool_points: Option<ToolPointsSpec>,
-}
-
-/// The second pass of a two-pass contact: points of the tool's surface against body faces.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ToolPointsSpec {
-    /// Body surface faces (bilinear quads, corners counter-clockwise seen from outside).
-    pub faces: Vec<[usize; 4]>,
-    /// Distance between the tool's surface points (µm).
-    pub spacing: f64,
-    /// How far from the tool's axis the points reach (µm).
-    pub extent: f64,
 }
 
 /// A tool aimed at a body node: when step `step` starts, the tool is moved across that
@@ -239,15 +225,6 @@ pub fn contact_terms(model: &ModelSpec) -> Result<Vec<Box<dyn Term>>, ContactErr
                 )?
                 .with_curvature_tangent(tool.curvature_tangent)
                 .with_watched_nodes(watched)
-            };
-            let term = match &tool.tool_points {
-                Some(points) => term.with_tool_points_on_faces(
-                    &points.faces,
-                    &model.mesh.nodes,
-                    points.spacing,
-                    points.extent,
-                )?,
-                None => term,
             };
             let term = match tool.aim {
                 Some(aim) => term.aimed_at(aim.node, aim.step),

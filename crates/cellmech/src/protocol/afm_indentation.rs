@@ -13,7 +13,7 @@ use super::{ProtocolError, ProtocolPlan, ToolHandle};
 use crate::cell::adherent::IndentationSite;
 use crate::cell::BuiltCell;
 use crate::model::tools::{
-    default_penalty, default_tolerance, ForceTarget, ToolAim, ToolMotion, ToolPointsSpec, ToolSpec,
+    default_penalty, default_tolerance, ForceTarget, ToolAim, ToolMotion, ToolSpec,
 };
 use crate::model::StepSpec;
 use crate::param::{Bounds, ParamDef, ParamDefault as D, ParamKind as K, ParamTable, ParamValues};
@@ -83,19 +83,11 @@ pub const AFM_INDENTATION: ParamTable = ParamTable {
         },
         ParamDef {
             key: "contact",
-            kind: K::Choice(&["nodes", "faces", "two-pass"]),
+            kind: K::Choice(&["nodes", "faces"]),
             default: D::Word("nodes"),
             bounds: Bounds::ANY,
-            doc: "where the tip acts: the surface nodes; 3 × 3 Gauss points on each surface face (a tip sharper than the stretched faces cannot slip between their nodes; slower: more contact-status solves per increment); or `two-pass`, the surface nodes on the tip and points of the tip's own surface (out to `tip_points_extent` from its axis) kept out of the surface faces, so the tip cannot pass through a face between its nodes",
+            doc: "where the tip acts: the surface nodes, or 3 × 3 Gauss points on each surface face (a tip sharper than the stretched faces cannot slip between their nodes; slower: more contact-status solves per increment)",
             source: "choice ([tools](tools.md#face-contact))",
-        },
-        ParamDef {
-            key: "tip_points_extent",
-            kind: K::Quantity(Length),
-            default: D::Number(0.0),
-            bounds: Bounds::NON_NEGATIVE,
-            doc: "with `contact = \"two-pass\"`: how far from the tip's axis its surface points reach, a quarter of the tip radius apart (0: the apex point alone, which stops the tip passing through the faces under it; more points also make the faces wrap the tip's flank as flat facets, which stiffens the response on faces coarser than the tip)",
-            source: "choice, measured ([adherent cell](adherent-cell.md#two-pass-contact-2026-12-06)): a coarse apex mesh (0.15 um faces) against node contact at 0.2 / 0.4 um: the same to 0.01 % with the apex alone, +39 / +52 % with points out to 0.1 um, +101 / +126 % out to 0.4 um",
         },
         ParamDef {
             key: "contact_tangent",
@@ -200,12 +192,6 @@ pub struct AfmIndentation {
     pub retract: bool,
     /// Contact on Gauss points of the surface faces instead of the surface nodes.
     pub on_faces: bool,
-    /// Two-pass contact: the surface nodes on the tip and the tip's surface points on the
-    /// surface faces.
-    pub two_pass: bool,
-    /// How far from the tip's axis its surface points reach in a two-pass contact (µm; 0:
-    /// the apex alone).
-    pub tip_points_extent: f64,
     /// Which pressure the contact tangent's curvature term uses.
     pub contact_tangent: CurvatureTangent,
     /// Force that counts as contact (nN).
@@ -242,11 +228,6 @@ const MAX_TOUCH_TRAVEL: f64 = 0.5;
 /// between its nodes on the finest meshes measured (at most 4.4 nm with the 2 nm tolerance).
 pub const PIERCE_TOLERANCES: f64 = 5.0;
 
-/// Two-pass contact: the tip's surface points lie this many tip radii apart (0.05 µm for
-/// the 0.2 µm tip: a flat face between them lies at most (0.05/2)²/(2R) = 1.6 nm inside the
-/// tip, below the 2 nm penetration tolerance).
-const TOOL_POINT_SPACING_RADII: f64 = 0.25;
-
 /// Contact candidates: dome nodes within this many tip-to-depth contact radii
 /// `√(2 R d_max)` of the site, and at least [`MIN_CONTACT_RADIUS`].
 const CONTACT_RADII: f64 = 3.0;
@@ -282,8 +263,6 @@ impl AfmIndentation {
             depths: v.list("depths").to_vec(),
             retract: v.word("retract") == "yes",
             on_faces: v.word("contact") == "faces",
-            two_pass: v.word("contact") == "two-pass",
-            tip_points_extent: v.number("tip_points_extent"),
             contact_tangent: match v.word("contact_tangent") {
                 "consistent" => CurvatureTangent::Consistent,
                 _ => CurvatureTangent::Lagged,
@@ -440,21 +419,6 @@ impl AfmIndentation {
         } else {
             Vec::new()
         };
-        // With `contact = "two-pass"` the tip's own surface points (by default its apex
-        // alone) are also kept out of those faces (turned to face out of the cell).
-        let tool_points = self.two_pass.then(|| {
-            let faces: Vec<[usize; 4]> = cell
-                .surface_faces
-                .iter()
-                .copied()
-                .filter(|f| f.iter().all(|n| inside.contains(n)))
-                .collect();
-            ToolPointsSpec {
-                faces: outward_faces(&cell.model.mesh, &faces),
-                spacing: TOOL_POINT_SPACING_RADII * r,
-                extent: self.tip_points_extent,
-            }
-        });
         let apex = [site[0], site[1], site[2] + self.approach_gap];
         let axis = [0.0, 0.0, -1.0];
         // The penetration tolerance also resolves the tip: 1 % of its radius at most.
@@ -485,7 +449,6 @@ impl AfmIndentation {
             curvature_tangent: self.contact_tangent,
             aim: None,
             watch,
-            tool_points,
         });
         let loading = StepControl {
             initial_increment: self.max_increment.min(0.1),
@@ -565,59 +528,4 @@ impl AfmIndentation {
             pierce_tolerance: PIERCE_TOLERANCES * contact_tolerance,
         })
     }
-}
-
-/// `faces` (quads of the mesh's surface) with their corners turned counter-clockwise seen
-/// from outside: each face is compared with the centroid of the hexahedron it bounds (a
-/// face no hexahedron holds is kept as it is).
-fn outward_faces(mesh: &cellmech_fem::mesh::Mesh, faces: &[[usize; 4]]) -> Vec<[usize; 4]> {
-    use std::collections::{HashMap, HashSet};
-    let wanted: HashSet<usize> = faces.iter().flatten().copied().collect();
-    // The hexahedra touching a face node, and for each such node the ones it belongs to.
-    let mut element_nodes: Vec<(&[usize], [f64; 3])> = Vec::new();
-    let mut elements_of: HashMap<usize, Vec<usize>> = HashMap::new();
-    for block in &mesh.blocks {
-        let per = block.kind.nodes_per_element();
-        if per != 8 {
-            continue;
-        }
-        for element in block.connectivity.chunks(per) {
-            if !element.iter().any(|n| wanted.contains(n)) {
-                continue;
-            }
-            let centroid: [f64; 3] = std::array::from_fn(|i| {
-                element.iter().map(|&n| mesh.nodes[n][i]).sum::<f64>() / per as f64
-            });
-            for n in element.iter().filter(|n| wanted.contains(n)) {
-                elements_of.entry(*n).or_default().push(element_nodes.len());
-            }
-            element_nodes.push((element, centroid));
-        }
-    }
-    let holding = |face: &[usize; 4]| {
-        elements_of.get(&face[0])?.iter().find_map(|&e| {
-            let (nodes, centroid) = element_nodes[e];
-            face.iter().all(|n| nodes.contains(n)).then_some(centroid)
-        })
-    };
-    faces
-        .iter()
-        .map(|face| {
-            let x = face.map(|n| mesh.nodes[n]);
-            let centre: [f64; 3] =
-                std::array::from_fn(|i| 0.25 * x.iter().map(|p| p[i]).sum::<f64>());
-            let normal = crate::cell::vec3::cross(
-                crate::cell::vec3::sub(x[2], x[0]),
-                crate::cell::vec3::sub(x[3], x[1]),
-            );
-            match holding(face) {
-                Some(c)
-                    if crate::cell::vec3::dot(normal, crate::cell::vec3::sub(c, centre)) > 0.0 =>
-                {
-                    [face[0], face[3], face[2], face[1]]
-                }
-                _ => *face,
-            }
-        })
-        .collect()
 }

@@ -432,7 +432,6 @@ impl PoleTest {
                 curvature_tangent: Default::default(),
                 aim: None,
                 watch: Vec::new(),
-                tool_points: None,
             });
             handle
         });

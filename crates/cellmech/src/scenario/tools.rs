@@ -235,7 +235,6 @@ pub(super) fn resolve_tools(
             curvature_tangent: Default::default(),
             aim: None,
             watch: Vec::new(),
-            tool_points: None,
         });
     }
     Ok(tools)
