@@ -8,6 +8,10 @@
 //! the tool as the slave: a set of points on the tool's surface, moving with it, each kept
 //! on the outer side of the faces it lies behind.
 //!
+//! No scenario key reaches this pass yet: in the adherent cell, points on the tip's flank
+//! stiffened the response and fought the node pass, and the apex point alone changed
+//! nothing (`docs/tools.md`, "Two-pass contact (engine only)").
+//!
 //! **Geometry.** Each bilinear face is split into four triangles through its centroid
 //! (corner k, corner k+1, centroid), so the surface seen by the tool is piecewise flat and
 //! the gap of a tool point `s` from triangle t is the closed form
