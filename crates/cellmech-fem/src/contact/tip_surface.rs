@@ -9,8 +9,9 @@
 //! on the outer side of the faces it lies behind.
 //!
 //! No scenario key reaches this pass yet: in the adherent cell, points on the tip's flank
-//! stiffened the response and fought the node pass, and the apex point alone changed
-//! nothing (`docs/tools.md`, "Two-pass contact (engine only)").
+//! stiffened the response far beyond the faceting error below (the cause is not settled),
+//! and the apex point alone changed nothing (`docs/tools.md`, "Two-pass contact (engine
+//! only)").
 //!
 //! **Geometry.** Each bilinear face is split into four triangles through its centroid
 //! (corner k, corner k+1, centroid), so the surface seen by the tool is piecewise flat and
