@@ -48,13 +48,19 @@ fn spring_over_plate(
         program,
     )
     .unwrap();
+    springs_and_tool(2, springs, contact, Box::new(DenseSolver::default()))
+}
+
+/// A problem of `nodes` translational nodes with the spring set and the tool's contact
+/// (terms 0 and 1).
+fn springs_and_tool(
+    nodes: usize,
+    springs: SpringSet,
+    contact: RigidContact,
+    solver: Box<dyn crate::linsolve::LinearSolver>,
+) -> Problem {
     let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
-    Problem::new(
-        DofMap::translational(2),
-        terms,
-        Box::new(DenseSolver::default()),
-    )
-    .unwrap()
+    Problem::new(DofMap::translational(nodes), terms, solver).unwrap()
 }
 
 fn fixed_top_and_lateral() -> Vec<(usize, Motion)> {
@@ -617,19 +623,16 @@ fn face_on_springs_under_a_sharp_tip(depth: f64, two_pass: bool) -> Problem {
     } else {
         contact
     };
-    let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
-    Problem::new(
-        DofMap::translational(8),
-        terms,
-        Box::new(DenseSolver::default()),
-    )
-    .unwrap()
+    springs_and_tool(8, springs, contact, Box::new(DenseSolver::default()))
 }
 
-/// The anchors held, the face's corners free only vertically.
-fn face_supports() -> Vec<(usize, Motion)> {
-    let mut fixed: Vec<(usize, Motion)> = (12..24).map(|d| (d, Motion::Hold)).collect();
-    for a in 0..4 {
+/// Supports of `surface` nodes on springs to anchors (nodes `surface..2 surface`): the
+/// anchors held, the surface nodes free only vertically.
+fn vertical_only(surface: usize) -> Vec<(usize, Motion)> {
+    let mut fixed: Vec<(usize, Motion)> = (3 * surface..6 * surface)
+        .map(|d| (d, Motion::Hold))
+        .collect();
+    for a in 0..surface {
         fixed.push((3 * a, Motion::Hold));
         fixed.push((3 * a + 1, Motion::Hold));
     }
@@ -643,7 +646,7 @@ fn a_tip_sharper_than_a_face_passes_through_it_with_node_contact_and_not_with_tw
     // high; the tip passes through the face and carries nothing.
     let mut p = face_on_springs_under_a_sharp_tip(depth, false);
     let mut step = Step::new("push");
-    step.prescribed = face_supports();
+    step.prescribed = vertical_only(4);
     p.run_step(&step, &mut crate::solve::NullObserver).unwrap();
     let out = contact_term(&p);
     assert_eq!(value(&out, "tip_force_z_nN"), 0.0);
@@ -839,20 +842,13 @@ fn grid_under_tip(
     } else {
         contact
     };
-    let terms: Vec<Box<dyn Term>> = vec![Box::new(springs), Box::new(contact)];
-    let problem = Problem::new(
-        DofMap::translational(x.len()),
-        terms,
+    let problem = springs_and_tool(
+        x.len(),
+        springs,
+        contact,
         Box::new(crate::linsolve::FaerSparseSolver::default()),
-    )
-    .unwrap();
-    let mut fixed: Vec<(usize, Motion)> = (3 * surface..6 * surface)
-        .map(|d| (d, Motion::Hold))
-        .collect();
-    for a in 0..surface {
-        fixed.push((3 * a, Motion::Hold));
-        fixed.push((3 * a + 1, Motion::Hold));
-    }
+    );
+    let fixed = vertical_only(surface);
     (problem, fixed)
 }
 
