@@ -4,7 +4,8 @@
 
 use crate::dof::DofMap;
 use crate::element::hex8::{
-    hex8_evaluate, hex8_max_log_strain_between, hex8_response, Hex8Formulation, Hex8Reference,
+    hex8_evaluate, hex8_max_log_strain_between, hex8_min_corner_jacobian_ratio, hex8_response,
+    Hex8Formulation, Hex8Reference,
 };
 use crate::element::{ElementSet, KernelError};
 use crate::material::{Hyperelastic, NeoHookean};
@@ -17,6 +18,9 @@ pub struct ContinuumBlock<M: Hyperelastic = NeoHookean> {
     name: String,
     connectivity: Vec<[usize; 8]>,
     references: Vec<Hex8Reference>,
+    /// Reference node coordinates per element (µm), for the corner Jacobians of
+    /// [`hex8_min_corner_jacobian_ratio`] (outputs only, not the kernel's hot data).
+    reference_nodes: Vec<[[f64; 3]; 8]>,
     material: M,
     formulation: Hex8Formulation,
 }
@@ -60,6 +64,7 @@ impl<M: Hyperelastic> ContinuumBlock<M> {
         }
         let mut connectivity = Vec::with_capacity(block.len());
         let mut references = Vec::with_capacity(block.len());
+        let mut reference_nodes = Vec::with_capacity(block.len());
         for (e, element) in block.elements().enumerate() {
             let conn: [usize; 8] = std::array::from_fn(|a| element[a]);
             let x0: [[f64; 3]; 8] = std::array::from_fn(|a| nodes[conn[a]]);
@@ -71,11 +76,13 @@ impl<M: Hyperelastic> ContinuumBlock<M> {
                 })?;
             connectivity.push(conn);
             references.push(reference);
+            reference_nodes.push(x0);
         }
         Ok(ContinuumBlock {
             name: block.name.clone(),
             connectivity,
             references,
+            reference_nodes,
             material,
             formulation,
         })
@@ -147,7 +154,13 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
         let mut log_strain = Vec::with_capacity(n);
         let mut volume_ratio = Vec::with_capacity(n);
         let mut pressure = Vec::with_capacity(n);
+        let mut corner_ratio = Vec::with_capacity(n);
         for e in 0..n {
+            let u_e = self.element_displacements(e, u, dof_map);
+            corner_ratio.push(hex8_min_corner_jacobian_ratio(
+                &self.reference_nodes[e],
+                &u_e,
+            ));
             let response = hex8_response(
                 &self.references[e],
                 &self.material,
@@ -174,6 +187,7 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
                 field("max_principal_log_strain", 1, log_strain),
                 field("volume_ratio", 1, volume_ratio),
                 field("pressure_kPa", 1, pressure),
+                field("min_corner_jacobian_ratio", 1, corner_ratio),
             ],
         }))
     }
@@ -181,16 +195,20 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
     /// `<block>_max_principal_log_strain` and `<block>_max_von_mises_kPa`: the largest
     /// element values over the block (the element value is the volume average of the
     /// element's state; see `hex8_response`). NaN when an element cannot be evaluated.
+    /// `<block>_min_corner_jacobian_ratio`: the smallest [`hex8_min_corner_jacobian_ratio`]
+    /// over the block; ≤ 0 once an element has folded over (its map is no longer
+    /// one-to-one), which the Gauss points alone do not see.
     fn curve_outputs(&self, u: &[f64], dof_map: &DofMap) -> Vec<(String, f64)> {
         let (mut strain, mut mises) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        let mut corner_ratio = f64::INFINITY;
         let mut failed = false;
         for e in 0..self.connectivity.len() {
-            match hex8_response(
-                &self.references[e],
-                &self.material,
-                self.formulation,
-                &self.element_displacements(e, u, dof_map),
-            ) {
+            let u_e = self.element_displacements(e, u, dof_map);
+            corner_ratio = corner_ratio.min(hex8_min_corner_jacobian_ratio(
+                &self.reference_nodes[e],
+                &u_e,
+            ));
+            match hex8_response(&self.references[e], &self.material, self.formulation, &u_e) {
                 Ok(r) => {
                     strain = strain.max(r.max_principal_log_strain);
                     mises = mises.max(r.von_mises);
@@ -204,6 +222,10 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
         vec![
             (format!("{}_max_principal_log_strain", self.name), strain),
             (format!("{}_max_von_mises_kPa", self.name), mises),
+            (
+                format!("{}_min_corner_jacobian_ratio", self.name),
+                corner_ratio,
+            ),
         ]
     }
 

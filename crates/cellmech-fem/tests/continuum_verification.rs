@@ -438,3 +438,53 @@ fn sphere_compressed_by_its_caps_converges_with_mesh_refinement() {
         100.0 * d2 / forces[2]
     );
 }
+
+#[test]
+fn a_block_reports_an_element_folded_over_at_a_corner_that_its_gauss_points_miss() {
+    // GOAL: `<block>_min_corner_jacobian_ratio` (curve) and the VTU field
+    // `min_corner_jacobian_ratio` flag an element whose map folds over near a corner while
+    // det F > 0 at all its Gauss points (the block's stresses still evaluate).
+    // MESH: two unit cubes side by side. BCS: none (states are set, not solved).
+    // REFERENCE: the cube at x ∈ [1, 2] with its node (2, 1, 1) pushed down to z = −0.2:
+    // at that corner det ∂x/∂ξ = (1)(1)(−0.2)/8 against 1/8, ratio −0.2; the other cube
+    // keeps 1 where it does not share the node, and the block's minimum is −0.2.
+    use cellmech_fem::element::ElementSet;
+    let mesh = box_mesh([0.0; 3], [2.0, 1.0, 1.0], [2, 1, 1], "solid").unwrap();
+    let block = ContinuumBlock::new(
+        &mesh.blocks[0],
+        &mesh.nodes,
+        NeoHookean::from_shear_poisson(1.0, 0.3).unwrap(),
+        Hex8Formulation::MeanDilatation,
+    )
+    .unwrap();
+    let dofs = DofMap::translational(mesh.num_nodes());
+    let corner = mesh
+        .nodes
+        .iter()
+        .position(|x| {
+            (x[0] - 2.0).abs() < 1e-12 && (x[1] - 1.0).abs() < 1e-12 && (x[2] - 1.0).abs() < 1e-12
+        })
+        .unwrap();
+    let mut u = vec![0.0; 3 * mesh.num_nodes()];
+    u[3 * corner + 2] = -1.2;
+    let curve = block.curve_outputs(&u, &dofs);
+    let ratio = curve
+        .iter()
+        .find(|(name, _)| name == "solid_min_corner_jacobian_ratio")
+        .map(|(_, v)| *v)
+        .unwrap();
+    assert!((ratio + 0.2).abs() < 1e-12, "block minimum {ratio}");
+    assert!(
+        curve.iter().all(|(_, v)| v.is_finite()),
+        "the Gauss points stay valid: {curve:?}"
+    );
+    let cells = block.cell_outputs(&u, &dofs).unwrap().unwrap();
+    let field = cells
+        .fields
+        .iter()
+        .find(|f| f.name == "min_corner_jacobian_ratio")
+        .unwrap();
+    let folded = field.values.iter().filter(|&&v| v <= 0.0).count();
+    assert_eq!(folded, 1, "{:?}", field.values);
+    assert!(field.values.iter().any(|&v| (v - 1.0).abs() < 1e-12));
+}

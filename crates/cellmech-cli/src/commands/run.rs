@@ -118,6 +118,11 @@ fn report(args: &RunArgs, summary: &RunSummary) {
                     "  warning: from {depth:.3} um of indentation the tip passes between the surface nodes into the cell (a mesh node lies more than five penetration tolerances inside it); the curve beyond is the mesh's, not the model's: refine the mesh at the site (cell.refinement.element_size with max_levels)"
                 );
             }
+            if let Some(at) = p.continuum_folds_at_um {
+                eprintln!(
+                    "  warning: from {at:.3} um an element of the cell has folded over (a corner Jacobian <= 0: its map is no longer one-to-one, though its Gauss points are valid); the curve beyond depends on the mesh there: curve.csv's <block>_min_corner_jacobian_ratio and the VTU cell field min_corner_jacobian_ratio show where"
+                );
+            }
             if let Some(r) = p.support_reaction_max_nn {
                 eprintln!("  largest support reaction: {r:.2e} nN");
             }

@@ -37,6 +37,10 @@ pub struct TestPoint {
     pub nucleus_max_principal_log_strain_from_reference: f64,
     /// Nucleus length along the test axis over its mean transverse width.
     pub nucleus_aspect_ratio: f64,
+    /// Smallest ratio of current to reference Jacobian at the corners of the cell's hex8
+    /// elements (cytoplasm and nucleus; `hex8_min_corner_jacobian_ratio`): 1 undeformed,
+    /// ≤ 0 once an element has folded over, which its Gauss points do not show.
+    pub continuum_min_corner_jacobian_ratio: f64,
     /// AFM: radius of the contact zone around the tip's axis (µm; see
     /// `RigidContact::contact_radius`); NaN for the other tests.
     pub contact_radius_um: f64,
@@ -74,6 +78,13 @@ pub struct ProtocolResults {
     /// the mesh at the site, `refinement.element_size`). `None`: it never did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tip_passes_between_nodes_at_um: Option<f64>,
+    /// The first point of the test curve (its displacement, µm: elongation, plate travel or
+    /// indentation) at which an element of the cell's continuum had folded over: a corner
+    /// Jacobian ≤ 0 (`TestPoint::continuum_min_corner_jacobian_ratio`). From there the
+    /// mesh, not the model, shapes the solution where the fold is (for AFM, under the tip:
+    /// see docs/adherent-cell.md). `None`: no element folded.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub continuum_folds_at_um: Option<f64>,
     /// Files written.
     pub files: Vec<String>,
 }
@@ -144,6 +155,13 @@ pub fn write_protocol_results(
     let strain = column("nucleus_max_principal_log_strain")?;
     let strain_from_reference = column("nucleus_max_principal_log_strain_from_reference")?;
     let aspect = column("nucleus_aspect_ratio")?;
+    // Element validity over every continuum block the cell has (NaN where none reports).
+    let corner_ratio: Vec<f64> = ["cytoplasm", "nucleus"]
+        .iter()
+        .filter_map(|block| writer.column(&format!("{block}_min_corner_jacobian_ratio")))
+        .fold(vec![f64::NAN; step.len()], |acc, c| {
+            acc.iter().zip(&c).map(|(a, b)| a.min(*b)).collect()
+        });
     // The tip's contact radius (AFM only).
     let contact_radius = match plan {
         ProtocolPlan::AfmIndentation { tip, .. } => Some(column(&tip.contact_radius_column())?),
@@ -174,6 +192,7 @@ pub fn write_protocol_results(
         last: None,
         apparent_modulus: None,
         tip_passes_between_nodes_at_um: None,
+        continuum_folds_at_um: None,
         files: Vec::new(),
     };
     // The reference state is the end of its step: none when that step did not finish. A
@@ -207,6 +226,7 @@ pub fn write_protocol_results(
                 strain_from_reference[r]
             },
             nucleus_aspect_ratio: aspect[r],
+            continuum_min_corner_jacobian_ratio: corner_ratio[r],
             contact_radius_um: contact_radius.as_ref().map_or(f64::NAN, |c| c[r]),
         }
     };
@@ -245,6 +265,10 @@ pub fn write_protocol_results(
                 .map(|&r| point(r).displacement_um);
         }
     }
+    results.continuum_folds_at_um = curve_rows
+        .iter()
+        .find(|&&r| corner_ratio[r] <= 0.0)
+        .map(|&r| point(r).displacement_um);
     let (stem, x_label, x_column) = match kind {
         "micropipette-tension" => ("tension", "elongation (µm)", "elongation_um"),
         "afm-indentation" => (
@@ -267,6 +291,7 @@ pub fn write_protocol_results(
         "nucleus_max_principal_log_strain",
         "nucleus_max_principal_log_strain_from_reference",
         "nucleus_aspect_ratio",
+        "continuum_min_corner_jacobian_ratio",
     ];
     if contact_radius.is_some() {
         columns.push("contact_radius_um");
@@ -281,6 +306,7 @@ pub fn write_protocol_results(
             p.nucleus_max_principal_log_strain,
             p.nucleus_max_principal_log_strain_from_reference,
             p.nucleus_aspect_ratio,
+            p.continuum_min_corner_jacobian_ratio,
             p.contact_radius_um,
         ];
         out.push_row(&row[..columns.len()])

@@ -42,6 +42,10 @@ pub struct StudyRow {
     pub dissipated_fraction: f64,
     /// Wall time (s).
     pub wall_time_s: f64,
+    /// The first displacement (µm) from which the mesh no longer represents the model:
+    /// an element folded over, or (AFM) the tip passed between the surface nodes. `None`:
+    /// valid to the end.
+    pub mesh_invalid_from_um: Option<f64>,
     /// Why it failed.
     pub error: Option<String>,
 }
@@ -80,6 +84,12 @@ pub fn rows(spec: &StudySpec, cases: &[Case], records: &[Option<CaseRecord>]) ->
                 stabilized_increments: record.map_or(0, |r| r.stabilized_increments),
                 dissipated_fraction: record.map_or(0.0, |r| r.dissipated_fraction),
                 wall_time_s: record.map_or(0.0, |r| r.wall_time_s),
+                mesh_invalid_from_um: record.and_then(|r| {
+                    [r.folds_at_um, r.tip_passes_between_nodes_at_um]
+                        .into_iter()
+                        .flatten()
+                        .reduce(f64::min)
+                }),
                 error: record.and_then(|r| r.error.clone()),
             }
         })
@@ -238,7 +248,7 @@ pub fn write_report(
     for (i, a) in spec.axes.iter().enumerate() {
         let _ = write!(csv, ",axis{i}_{}", a.kind);
     }
-    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,stabilized_increments,dissipated_fraction,wall_time_s,error\n");
+    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,stabilized_increments,dissipated_fraction,wall_time_s,mesh_invalid_from_um,error\n");
     for r in &rows {
         csv.push_str(&csv_field(&r.case));
         for l in &r.labels {
@@ -247,7 +257,7 @@ pub fn write_report(
         }
         let _ = writeln!(
             csv,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.2},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.2},{},{}",
             r.status,
             opt(r.displacement_um, 4),
             opt(r.force_nn, 6),
@@ -263,6 +273,7 @@ pub fn write_report(
             r.stabilized_increments,
             r.dissipated_fraction,
             r.wall_time_s,
+            opt(r.mesh_invalid_from_um, 4),
             r.error.as_deref().map(csv_field).unwrap_or_default()
         );
     }
@@ -447,6 +458,19 @@ pub fn write_report(
             r.wall_time_s
         );
     }
+    let invalid: Vec<_> = rows
+        .iter()
+        .filter_map(|r| r.mesh_invalid_from_um.map(|d| (r, d)))
+        .collect();
+    if !invalid.is_empty() {
+        let _ = writeln!(
+            md,
+            "\nWhere the mesh stopped representing the model (an element folded over, or the tip passed between the surface nodes; points beyond are the mesh's, not the model's):\n"
+        );
+        for (r, d) in invalid {
+            let _ = writeln!(md, "- `{}`: from {d:.3} µm", r.case);
+        }
+    }
     for sens in &sensitivity {
         let _ = writeln!(
             md,
@@ -557,6 +581,8 @@ mod tests {
             factorizations: 1,
             stabilized_increments: 0,
             dissipated_fraction: 0.0,
+            folds_at_um: None,
+            tip_passes_between_nodes_at_um: None,
             wall_time_s: 0.5,
             curve: Vec::new(),
         }
@@ -642,6 +668,44 @@ mod tests {
 
     /// A completed case whose path needed the viscosity says so in the table, in its own
     /// section of the report and in `study.csv`; a clean case does not.
+    /// A case whose mesh stopped representing the model (a folded element, a tip between
+    /// the nodes) says from where, in `study.csv` and the report: the earlier of the two.
+    #[test]
+    fn a_mesh_that_went_invalid_is_reported_from_the_first_depth() {
+        let dir = std::env::temp_dir().join(format!("cellmech-fold-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let (spec, cases) = actin_disruption();
+        let records: Vec<Option<CaseRecord>> = cases
+            .iter()
+            .map(|c| {
+                let mut r = record(c, Some(2.0));
+                if c.name != "control" {
+                    r.folds_at_um = Some(1.675);
+                    r.tip_passes_between_nodes_at_um = Some(1.775);
+                }
+                Some(r)
+            })
+            .collect();
+        write_report(&spec, &cases, &records, &dir).unwrap();
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        assert!(md.contains("- `no-actin`: from 1.675 µm"), "{md}");
+        assert!(!md.contains("- `control`: from"), "{md}");
+        let csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = header
+            .iter()
+            .position(|h| *h == "mesh_invalid_from_um")
+            .unwrap();
+        for line in lines {
+            let v: Vec<&str> = line.split(',').collect();
+            let want = if v[0] == "control" { "" } else { "1.6750" };
+            assert_eq!(v[col], want, "{line}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn a_stabilised_path_is_reported_not_hidden() {
         let dir = std::env::temp_dir().join(format!("cellmech-stab-{}", std::process::id()));

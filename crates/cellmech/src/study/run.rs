@@ -82,6 +82,14 @@ pub struct CaseRecord {
     /// was carried by the viscosity.
     #[serde(default)]
     pub dissipated_fraction: f64,
+    /// The first point at which an element of the cell's continuum had folded over
+    /// (`ProtocolResults::continuum_folds_at_um`, µm of the test's displacement).
+    #[serde(default)]
+    pub folds_at_um: Option<f64>,
+    /// AFM: the first indentation at which the tip had passed between the surface nodes
+    /// (`ProtocolResults::tip_passes_between_nodes_at_um`, µm).
+    #[serde(default)]
+    pub tip_passes_between_nodes_at_um: Option<f64>,
     /// Wall time of the case (s).
     pub wall_time_s: f64,
     /// The test curve.
@@ -287,6 +295,8 @@ pub fn run_case_in(
                 .filter_map(|s| s.stabilization.map(|st| st.dissipated_fraction))
                 .fold(0.0, f64::max)
         }),
+        folds_at_um: protocol.and_then(|p| p.continuum_folds_at_um),
+        tip_passes_between_nodes_at_um: protocol.and_then(|p| p.tip_passes_between_nodes_at_um),
         wall_time_s: start.elapsed().as_secs_f64(),
         curve: protocol
             .map(|p| {

@@ -36,7 +36,9 @@ mod response;
 #[cfg(test)]
 mod tests;
 
-pub use response::{hex8_max_log_strain_between, hex8_response, Hex8Response};
+pub use response::{
+    hex8_max_log_strain_between, hex8_min_corner_jacobian_ratio, hex8_response, Hex8Response,
+};
 
 use super::KernelError;
 use crate::material::Hyperelastic;

@@ -1,7 +1,7 @@
 //! Post-processing of one hex8: volume-averaged Cauchy stress, von Mises stress, maximum
 //! principal logarithmic strain, volume ratio and pressure.
 
-use super::{point_pressure, Hex8Formulation, Hex8Reference};
+use super::{natural_gradients, point_pressure, Hex8Formulation, Hex8Reference, NODE_NATURAL};
 use crate::element::KernelError;
 use crate::material::Hyperelastic;
 use crate::math::eigen3::max_symmetric_eigenvalue;
@@ -90,4 +90,32 @@ pub fn hex8_max_log_strain_between(
         max_log = max_log.max(0.5 * max_symmetric_eigenvalue(&b).ln());
     }
     Ok(max_log)
+}
+
+/// Smallest ratio, over the 8 corners, of the current to the reference Jacobian determinant
+/// det(∂x/∂ξ) / det(∂X/∂ξ) at the corner, for reference node coordinates `x0` (µm) and
+/// displacements `u` (µm, node-major): the element's validity as a map.
+///
+/// The quadrature sees det F only at the Gauss points, which can all stay positive while
+/// the trilinear map folds over near a corner (a node pushed past the opposite face); a
+/// ratio ≤ 0 means the element's deformed shape is no longer one-to-one, and its stresses
+/// are those of an invalid shape. 1 in the reference state and under any rigid motion;
+/// det F under a homogeneous deformation.
+pub fn hex8_min_corner_jacobian_ratio(x0: &[[f64; 3]; 8], u: &[f64; 24]) -> f64 {
+    let mut ratio = f64::INFINITY;
+    for corner in NODE_NATURAL {
+        let dn = natural_gradients(corner);
+        let (mut j0, mut j) = (Matrix3::<f64>::zeros(), Matrix3::<f64>::zeros());
+        for (a, dna) in dn.iter().enumerate() {
+            for i in 0..3 {
+                let x = x0[a][i] + u[3 * a + i];
+                for k in 0..3 {
+                    j0[(i, k)] += x0[a][i] * dna[k];
+                    j[(i, k)] += x * dna[k];
+                }
+            }
+        }
+        ratio = ratio.min(j.determinant() / j0.determinant());
+    }
+    ratio
 }

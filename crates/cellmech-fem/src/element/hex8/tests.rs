@@ -415,3 +415,39 @@ fn log_strain_between_two_states_is_that_of_the_relative_deformation() {
     let strain = hex8_max_log_strain_between(&r, &zero, &u1).unwrap();
     assert!((strain - 1.2f64.ln()).abs() < 1e-12);
 }
+
+#[test]
+fn corner_jacobians_see_a_fold_the_gauss_points_miss() {
+    // Unit cube with its corner node 6 at (1, 1, 1) pushed down to z = −0.2, below the
+    // bottom face. At corner 6 the columns of ∂x/∂ξ are half its edges to nodes 7, 5 and 2:
+    // (1, 0, −1.2)/2, (0, 1, −1.2)/2 and (0, 0, −0.2)/2, so det = −0.2/8 against 1/8 in the
+    // reference: the map folds over there (ratio −0.2), while det F stays positive at every
+    // Gauss point.
+    let x0: [[f64; 3]; 8] = std::array::from_fn(|a| NODE_NATURAL[a].map(|s| 0.5 * (s + 1.0)));
+    let reference = Hex8Reference::new(&x0).expect("unit cube");
+    let mut u = [0.0; 24];
+    u[3 * 6 + 2] = -1.2;
+    let response = hex8_response(
+        &reference,
+        &material(10.0),
+        Hex8Formulation::MeanDilatation,
+        &u,
+    )
+    .expect("det F > 0 at every Gauss point");
+    assert!(response.volume_ratio > 0.0);
+    let ratio = hex8_min_corner_jacobian_ratio(&x0, &u);
+    assert!((ratio - (-0.2)).abs() < 1e-12, "ratio {ratio}");
+    // A homogeneous deformation of a distorted element: det F at every corner; a rigid
+    // motion: 1.
+    let x0 = distorted();
+    let f = Matrix3::new(1.35, 0.25, -0.1, -0.15, 0.8, 0.2, 0.1, -0.2, 1.1);
+    let ratio = hex8_min_corner_jacobian_ratio(&x0, &homogeneous_u(&x0, &f));
+    assert!(
+        (ratio - f.determinant()).abs() < 1e-12,
+        "{ratio} against {}",
+        f.determinant()
+    );
+    let rot = Rotation3::from_scaled_axis(Vector3::new(0.4, -0.3, 0.7));
+    let ratio = hex8_min_corner_jacobian_ratio(&x0, &homogeneous_u(&x0, rot.matrix()));
+    assert!((ratio - 1.0).abs() < 1e-12);
+}
