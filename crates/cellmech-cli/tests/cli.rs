@@ -348,3 +348,20 @@ fn bench_analyses_short_mode_reports_the_cost_and_compares_with_a_baseline() {
         "{text}"
     );
 }
+
+/// Output into a closed pipe (`cellmech params suspended-cell | head -1`) ends the program
+/// quietly with exit code 0, as ripgrep and cargo do, instead of a panic: the reading end
+/// is closed before the program has started, so its first line already meets a broken pipe.
+#[test]
+fn a_closed_stdout_pipe_ends_the_program_quietly_without_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cellmech"))
+        .args(["params", "suspended-cell"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{:?}: {}", out.status, stderr(&out));
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+}

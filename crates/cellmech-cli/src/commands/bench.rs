@@ -15,7 +15,7 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     }
     let mut cases = Vec::new();
     if !args.json {
-        println!(
+        out!(
             "{:>8} {:>8} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>8}",
             "elements",
             "dofs",
@@ -36,7 +36,7 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         let case = cellmech::bench::bench_case(target, matrix.as_deref())
             .map_err(|e| anyhow::anyhow!("benchmark at {target} elements: {e}"))?;
         if !args.json {
-            println!(
+            out!(
                 "{:>8} {:>8} {:>10} {:>10.3} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>8.3}",
                 case.elements,
                 case.dofs,
@@ -52,7 +52,7 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         cases.push(case);
     }
     if args.json {
-        println!("{}", serde_json::to_string(&cases)?);
+        out!("{}", serde_json::to_string(&cases)?);
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -83,15 +83,15 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
         let r = bench_analysis(name, args.coarse, &scratch)
             .map_err(|e| anyhow::anyhow!("benchmark {name}: {e}"))?;
         if !args.json {
-            println!(
+            out!(
                 "{} ({} hex8, {} dofs{}): wall {:.2} s, {} iterations, {} factorisations; assembly {:.2} s ({}) + residual-only {:.2} s ({}), factorisation {:.2} s, solve {:.2} s, relaxation {:.2} s, other {:.2} s; result {:.6} nN",
                 r.name, r.elements, r.dofs, if r.coarse { ", coarse" } else { "" }, r.wall_s, r.iterations,
                 r.factorizations, r.assembly_s, r.assemblies, r.residual_only_s, r.residual_evaluations, r.factorization_s, r.solve_s, r.relaxation_s, r.other_s, r.result
             );
             for (i, (step, increments, iterations, cutbacks, wall)) in r.steps.iter().enumerate() {
-                println!("    {step:<14} {increments:>4} increments {iterations:>5} iterations {cutbacks:>3} cutbacks {wall:>8.2} s");
+                out!("    {step:<14} {increments:>4} increments {iterations:>5} iterations {cutbacks:>3} cutbacks {wall:>8.2} s");
                 if let Some(s) = r.step_splits.get(i) {
-                    println!(
+                    out!(
                         "    {:<14} assembly {:.2} s ({}), residual-only {:.2} s ({}), factorisation {:.2} s ({}), solve {:.2} s, relaxation {:.2} s, contact/augmentation rounds {}, output {:.2} s",
                         "", s.assembly_s, s.assemblies, s.residual_only_s, s.residual_evaluations,
                         s.factorization_s, s.factorizations, s.solve_s, s.relaxation_s,
@@ -103,7 +103,7 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
                 .iter()
                 .find(|b| b.name == r.name && b.coarse == r.coarse)
             {
-                println!(
+                out!(
                     "    vs baseline: wall x{:.3}, iterations x{:.3}, factorisations x{:.3}, factorisation time x{:.3}, result {:+.2e} relative",
                     r.wall_s / b.wall_s,
                     r.iterations as f64 / b.iterations as f64,
@@ -121,7 +121,7 @@ fn analyses(args: &BenchArgs, names: &[String]) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("writing {}", path.display()))?;
     }
     if args.json {
-        println!("{}", serde_json::to_string(&results)?);
+        out!("{}", serde_json::to_string(&results)?);
     }
     Ok(ExitCode::SUCCESS)
 }

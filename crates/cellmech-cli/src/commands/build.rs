@@ -46,9 +46,9 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
             "dofs": model.problem.dof_map().num_dofs(),
             "files": paths,
         });
-        println!("{value}");
+        out!("{value}");
     } else if !args.report.quiet {
-        println!(
+        out!(
             "{}: {} nodes, {} hex8, {} DOFs",
             scenario.origin,
             scenario.model.mesh.num_nodes(),
@@ -56,7 +56,7 @@ pub fn build(args: &BuildArgs) -> anyhow::Result<ExitCode> {
             model.problem.dof_map().num_dofs()
         );
         for p in paths {
-            println!("  {p}");
+            out!("  {p}");
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -27,16 +27,16 @@ pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
             "node_sets": scenario.model.mesh.node_sets.keys().collect::<Vec<_>>(),
             "steps": scenario.model.steps.iter().map(|s| &s.name).collect::<Vec<_>>(),
         });
-        println!("{value}");
+        out!("{value}");
     } else if !args.report.quiet {
-        println!("{}: valid", scenario.origin);
-        println!(
+        out!("{}: valid", scenario.origin);
+        out!(
             "  mesh: {} nodes, {} elements",
             scenario.model.mesh.num_nodes(),
             scenario.model.mesh.num_elements()
         );
         for (name, n) in &blocks {
-            println!("  element set {name}: {n} elements");
+            out!("  element set {name}: {n} elements");
         }
         let steps: Vec<&str> = scenario
             .model
@@ -44,7 +44,7 @@ pub fn check(args: &CheckArgs) -> anyhow::Result<ExitCode> {
             .iter()
             .map(|s| s.name.as_str())
             .collect();
-        println!("  steps: {}", steps.join(", "));
+        out!("  steps: {}", steps.join(", "));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -8,7 +8,7 @@ pub fn example(args: &ExampleArgs) -> anyhow::Result<ExitCode> {
     match &args.name {
         None => {
             for e in cellmech::examples::EXAMPLES {
-                println!("{:<28} {}", e.name, e.summary);
+                out!("{:<28} {}", e.name, e.summary);
             }
         }
         Some(name) => {
@@ -22,7 +22,7 @@ pub fn example(args: &ExampleArgs) -> anyhow::Result<ExitCode> {
                     names.join(", ")
                 )
             })?;
-            print!("{}", e.text);
+            out_text!("{}", e.text);
         }
     }
     Ok(ExitCode::SUCCESS)

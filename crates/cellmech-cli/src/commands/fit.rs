@@ -19,7 +19,7 @@ pub fn fit(args: &FitArgs) -> anyhow::Result<ExitCode> {
     let quiet = args.report.quiet || args.report.json;
     if args.dry_run {
         if !args.report.quiet {
-            println!(
+            out!(
                 "fit \"{}\": {} ({}) against {} points of {}",
                 spec.title,
                 spec.experiment.base_origin,
@@ -28,7 +28,7 @@ pub fn fit(args: &FitArgs) -> anyhow::Result<ExitCode> {
                 spec.data_path.display()
             );
             for p in &spec.parameters {
-                println!(
+                out!(
                     "    {} start {} {u} in [{}, {}] {u} ({} scale)",
                     p.key,
                     p.start,
@@ -102,7 +102,7 @@ pub fn fit(args: &FitArgs) -> anyhow::Result<ExitCode> {
     };
     let outcome = fit::run_fit(&spec, &options, &mut on_run)?;
     if args.report.json {
-        println!(
+        out!(
             "{}",
             serde_json::to_string(&serde_json::json!({
                 "title": outcome.title,
@@ -205,7 +205,7 @@ fn synthetic(args: &FitArgs, file: &Path) -> anyhow::Result<ExitCode> {
     };
     let (x, _) = write_synthetic(&spec, &settings, &args.out, file, &mut on_run)?;
     if args.report.json {
-        println!(
+        out!(
             "{}",
             serde_json::json!({"file": file.display().to_string(), "points": x.len()})
         );

@@ -8,7 +8,7 @@ pub fn params(args: &ParamsArgs) -> anyhow::Result<ExitCode> {
     let tables = cellmech::experiment::parameter_tables();
     let Some(name) = &args.name else {
         for t in &tables {
-            println!(
+            out!(
                 "{:<26} [{}] {} parameters",
                 t.name,
                 t.section,
@@ -42,11 +42,11 @@ pub fn params(args: &ParamsArgs) -> anyhow::Result<ExitCode> {
                 })
             })
             .collect();
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        out!("{}", serde_json::to_string_pretty(&rows)?);
     } else if args.toml {
-        print!("{}", table.toml_template());
+        out_text!("{}", table.toml_template());
     } else {
-        print!("{}", table.markdown());
+        out_text!("{}", table.markdown());
     }
     Ok(ExitCode::SUCCESS)
 }

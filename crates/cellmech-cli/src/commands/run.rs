@@ -57,7 +57,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
 fn report(args: &RunArgs, summary: &RunSummary) {
     if args.report.json {
         match serde_json::to_string(summary) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => out!("{text}"),
             Err(e) => eprintln!("error: cannot encode the summary: {e}"),
         }
         return;

@@ -12,7 +12,7 @@ use crate::args::StudyArgs;
 pub fn study(args: &StudyArgs) -> anyhow::Result<ExitCode> {
     if args.list {
         for b in builtin::BUILTIN {
-            println!("{:<36} {}", b.name, b.summary);
+            out!("{:<36} {}", b.name, b.summary);
         }
         return Ok(ExitCode::SUCCESS);
     }
@@ -27,9 +27,9 @@ pub fn study(args: &StudyArgs) -> anyhow::Result<ExitCode> {
                 .shard
                 .map(|(_, n)| format!(" (shard {})", study::run::shard_of(&c.name, n)))
                 .unwrap_or_default();
-            println!("{}{shard}", c.name);
+            out!("{}{shard}", c.name);
             for (k, v) in &c.set {
-                println!("    {k} = {v}");
+                out!("    {k} = {v}");
             }
         }
         return Ok(ExitCode::SUCCESS);
@@ -112,7 +112,7 @@ pub fn study(args: &StudyArgs) -> anyhow::Result<ExitCode> {
             "failed": failed.iter().map(|r| serde_json::json!({"case": r.name, "error": r.error})).collect::<Vec<_>>(),
             "files": outcome.files,
         });
-        println!("{json}");
+        out!("{json}");
     } else if !args.report.quiet {
         let rows = study::report::rows(&spec, &outcome.cases, &outcome.records);
         eprintln!(
