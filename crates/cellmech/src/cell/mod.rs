@@ -6,6 +6,7 @@
 //! surface, its supports). Nothing here knows about protocols or scenario files.
 
 pub mod adherent;
+pub mod fa_plaque;
 pub mod suspended;
 pub(crate) mod vec3;
 

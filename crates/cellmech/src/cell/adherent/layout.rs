@@ -27,6 +27,7 @@ use cellmech_fem::mesh::Mesh;
 use super::geometry::{
     map_reference_mesh, mesh_report, AdherentMeshReport, AdherentMeshResolution, AdherentShape,
 };
+use crate::cell::fa_plaque::tie_fa_plaques;
 use crate::cell::suspended::cytoskeleton::{
     anchor_intermediate_filaments, IfAnchorRule, MicrotubulePath,
 };
@@ -131,18 +132,7 @@ fn check_not_inverted(min_scaled_jacobian: f64) -> Result<(), AdherentLayoutErro
     ))
 }
 
-/// How an FA's plaque (the dome nodes within `fa_radius` of the FA node) carries the pull
-/// of the filaments anchored at the FA node: the two couplings of commercial codes
-/// (Abaqus `*COUPLING`, `KINEMATIC` or `DISTRIBUTING`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FaCoupling {
-    /// Kinematic: every plaque node moves with the FA node, a rigid disc in translation.
-    Rigid,
-    /// Distributing: the FA node moves with the plaque nodes' mean (uniform weights) and
-    /// its load is shared among them equally; the plaque deforms with the cortex.
-    Distributing,
-}
+pub use crate::cell::fa_plaque::FaCoupling;
 
 /// Parameters of the adherent-cell layout (µm).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -371,91 +361,6 @@ fn turn_radial_line(reference: &mut Mesh, from: V3, to: V3) {
         let d: V3 = std::array::from_fn(|k| from[k] + w * (to[k] - from[k]));
         *x = crate::cell::vec3::scale(crate::cell::vec3::normalize(d), rho);
     }
-}
-
-/// Couples every dome node within `radius` of an FA node (the nearest FA when several) to
-/// it, so that the FA is a plaque rather than one node: a single node cannot carry an AB's
-/// pull where the mesh is refined (a point force on ever smaller elements; the receptor's
-/// prestress stalls at 1 % of the ramp). [`FaCoupling::Rigid`] ties each plaque node to
-/// the FA node, and hanging-node ties whose masters fall in a plaque are rewritten onto
-/// the FA node; [`FaCoupling::Distributing`] ties the FA node to its plaque nodes with
-/// equal weights, and hanging-node ties whose masters include an FA node are rewritten
-/// onto its plaque nodes (an FA whose plaque holds no free node stays a single node). No
-/// chains either way; hanging nodes keep their own ties. Returns the ties and the number of
-/// plaque nodes.
-fn tie_fa_plaques(
-    mesh: &Mesh,
-    hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
-    fa_nodes: &[usize],
-    radius: f64,
-    coupling: FaCoupling,
-) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
-    use cellmech_fem::mesh::refine::HangingNode;
-    use std::collections::{BTreeMap, HashSet};
-    if radius <= 0.0 {
-        return (hanging, 0);
-    }
-    let tied: HashSet<usize> = hanging.iter().map(|h| h.node).collect();
-    let fas: HashSet<usize> = fa_nodes.iter().copied().collect();
-    let mut plaque: BTreeMap<usize, usize> = BTreeMap::new();
-    for &n in &mesh.node_sets["dome"] {
-        if fas.contains(&n) || tied.contains(&n) || mesh.nodes[n][2] <= 1e-9 {
-            continue;
-        }
-        let nearest = fa_nodes
-            .iter()
-            .map(|&f| (distance(mesh.nodes[n], mesh.nodes[f]), f))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some((d, f)) = nearest {
-            if d <= radius {
-                plaque.insert(n, f);
-            }
-        }
-    }
-    let count = plaque.len();
-    // What each node a tie may name stands for: (node, weight) pairs of free nodes.
-    let stands_for: BTreeMap<usize, Vec<(usize, f64)>> = match coupling {
-        FaCoupling::Rigid => plaque.iter().map(|(&n, &f)| (n, vec![(f, 1.0)])).collect(),
-        FaCoupling::Distributing => {
-            let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-            for (&n, &f) in &plaque {
-                members.entry(f).or_default().push(n);
-            }
-            members
-                .into_iter()
-                .map(|(f, nodes)| {
-                    let w = 1.0 / nodes.len() as f64;
-                    (f, nodes.into_iter().map(|n| (n, w)).collect())
-                })
-                .collect()
-        }
-    };
-    let mut ties: Vec<HangingNode> = hanging
-        .into_iter()
-        .map(|h| {
-            let mut masters: BTreeMap<usize, f64> = BTreeMap::new();
-            for (m, w) in h.masters {
-                match stands_for.get(&m) {
-                    Some(parts) => {
-                        for &(p, v) in parts {
-                            *masters.entry(p).or_insert(0.0) += w * v;
-                        }
-                    }
-                    None => *masters.entry(m).or_insert(0.0) += w,
-                }
-            }
-            HangingNode {
-                node: h.node,
-                masters: masters.into_iter().collect(),
-            }
-        })
-        .collect();
-    ties.extend(
-        stands_for
-            .into_iter()
-            .map(|(node, masters)| HangingNode { node, masters }),
-    );
-    (ties, count)
 }
 
 /// Mixed into the seed for the extra ABs of the density variant.
@@ -755,6 +660,8 @@ impl AdherentCellGeometry {
         let (hanging, plaque_nodes) = tie_fa_plaques(
             &mesh,
             hanging,
+            &mesh.node_sets["dome"],
+            |n| mesh.nodes[n][2] <= 1e-9,
             &plaque_owners,
             params.fa_radius,
             params.fa_coupling,
@@ -988,7 +895,17 @@ mod tests {
             node: bottom,
             masters: vec![(fa, 0.5), (plaque[0], 0.5)],
         }];
-        let (rigid, count) = tie_fa_plaques(&mesh, hanging.clone(), &[fa], 0.6, FaCoupling::Rigid);
+        let dome = mesh.node_sets["dome"].clone();
+        let base = |n: usize| mesh.nodes[n][2] <= 1e-9;
+        let (rigid, count) = tie_fa_plaques(
+            &mesh,
+            hanging.clone(),
+            &dome,
+            base,
+            &[fa],
+            0.6,
+            FaCoupling::Rigid,
+        );
         assert_eq!(count, 4);
         for &n in &plaque {
             let tie = rigid.iter().find(|h| h.node == n).unwrap();
@@ -996,8 +913,15 @@ mod tests {
         }
         let h = rigid.iter().find(|h| h.node == bottom).unwrap();
         assert_eq!(h.masters, vec![(fa, 1.0)]);
-        let (distributing, count) =
-            tie_fa_plaques(&mesh, hanging, &[fa], 0.6, FaCoupling::Distributing);
+        let (distributing, count) = tie_fa_plaques(
+            &mesh,
+            hanging,
+            &dome,
+            base,
+            &[fa],
+            0.6,
+            FaCoupling::Distributing,
+        );
         assert_eq!(count, 4);
         assert_eq!(distributing.len(), 2);
         let tie = distributing.iter().find(|h| h.node == fa).unwrap();

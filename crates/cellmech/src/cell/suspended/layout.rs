@@ -126,6 +126,11 @@ pub struct SuspendedCellParams {
     /// Local refinement of the mesh at both ends of the test axis, where the pipettes
     /// grip and the plates press (none when `levels` is 0).
     pub pole_refinement: PoleRefinement,
+    /// Radius of an FA plaque (µm): the surface nodes within it carry the filaments
+    /// anchored at the FA node, as `fa_coupling` says (0: the FA is one node).
+    pub fa_radius: f64,
+    /// How a plaque carries its FA's filaments (rigid or distributing).
+    pub fa_coupling: crate::cell::fa_plaque::FaCoupling,
     /// Truss elements per AF: 1, one straight truss between its FAs; more, the AF split
     /// along its chord with the interior nodes embedded in the cytoplasm
     /// (`actin.coupling = "embedded"`).
@@ -477,6 +482,9 @@ pub struct GeometryReport {
     pub max_if_nucleus_penetration: f64,
     /// IFs sharing their anchor node with another IF.
     pub shared_if_anchors: usize,
+    /// Surface nodes tied into FA plaques (0 with `fa_radius` 0 or a plaque smaller than
+    /// the mesh spacing at the FAs).
+    pub fa_plaque_nodes: usize,
 }
 
 /// The suspended cell's geometry: continuum mesh with FA nodes and the discrete
@@ -505,6 +513,9 @@ pub struct SuspendedCellGeometry {
     pub report: GeometryReport,
     /// Ties of the hanging nodes of a pole refinement (empty without one).
     pub hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    /// Every linear tie of the mesh: the hanging nodes' and the FA plaques' (`fa_radius`),
+    /// with no chains (equal to `hanging` without plaques).
+    pub ties: Vec<cellmech_fem::mesh::refine::HangingNode>,
     /// The outer boundary quads of a pole refinement, outward (a coarse face covered by
     /// finer ones excluded); empty without one (then the mesh is conforming).
     pub boundary_faces: Vec<[usize; 4]>,
@@ -578,6 +589,15 @@ impl SuspendedCellGeometry {
         )?;
         let (mut mesh, hanging, boundary_faces) =
             refine_poles(mesh, params.pole_refinement, cell_radius, nucleus_radius)?;
+        let (ties, fa_plaque_nodes) = crate::cell::fa_plaque::tie_fa_plaques(
+            &mesh,
+            hanging.clone(),
+            &mesh.node_sets["surface"],
+            |_| false,
+            &fa_nodes,
+            params.fa_radius,
+            params.fa_coupling,
+        );
         mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
         for (k, &n) in fa_nodes.iter().enumerate() {
             mesh.insert_node_set(format!("fa_{k}"), vec![n]);
@@ -633,6 +653,7 @@ impl SuspendedCellGeometry {
                 })
                 .fold(0.0, f64::max),
             shared_if_anchors: ifs.shared_anchors,
+            fa_plaque_nodes,
         };
         Ok(Self {
             mesh,
@@ -645,6 +666,7 @@ impl SuspendedCellGeometry {
             extra,
             report,
             hanging,
+            ties,
             boundary_faces,
         })
     }

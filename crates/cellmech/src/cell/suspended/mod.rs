@@ -741,6 +741,8 @@ impl SuspendedCell {
                     "hex8_elements": params.mesh.elements(),
                 },
                 "fa_orientation": format!("{:?}", params.fa_orientation),
+                "fa_radius_um": params.fa_radius,
+                "fa_coupling": params.fa_coupling,
                 "mt_elements": params.mt_elements,
                 "mt_bow": [params.mt_bow_min, params.mt_bow_max],
                 "mt_clearance_margin_um": params.mt_clearance_margin,
@@ -753,6 +755,7 @@ impl SuspendedCell {
             materials: serde_json::to_value(self.materials).unwrap_or_default(),
             geometry: serde_json::json!({
                 "max_fa_snap_um": report.max_snap_distance,
+                "fa_plaque_nodes": report.fa_plaque_nodes,
                 "max_relative_fa_snap": report.max_relative_snap_distance,
                 "min_scaled_jacobian_after_snap": report.min_scaled_jacobian_after_snap,
                 "af_length_um": report.af_length,
@@ -818,7 +821,7 @@ impl SuspendedCell {
                     split_filament_embeddings(&self.params),
                 ]
                 .concat(),
-                hanging: parts.geometry.hanging.clone(),
+                hanging: parts.geometry.ties.clone(),
                 prestressed_reference: self.coupling.prestressed_reference(),
             },
             description,

@@ -355,6 +355,22 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             "choice ([geometry](suspended-cell-geometry.md))",
         ),
         p(
+            "fa_radius",
+            K::Quantity(Length),
+            D::Number(0.0),
+            NONNEG,
+            "radius of an FA plaque: the surface nodes within it carry the FA's filaments, as `fa_coupling` says (0: the FA is one node; a radius below the mesh spacing at the FAs also leaves one node)",
+            "choice (spec: \"if a single node cannot carry the load, an FA may be a small patch of surface nodes tied together\"; with one node the elements at the FAs fold over in compression, [validation](suspended-cell-validation.md#folded-elements-at-the-fas-2026-12-06-stop-46))",
+        ),
+        p(
+            "fa_coupling",
+            K::Choice(&["rigid", "distributing"]),
+            D::Word("rigid"),
+            ANY,
+            "how an FA's plaque carries its filaments' pull: `rigid`, every plaque node moves with the FA node (Abaqus kinematic coupling); `distributing`, the FA node moves with the plaque nodes' mean and its load is shared among them equally (Abaqus distributing coupling)",
+            CHOICE,
+        ),
+        p(
             "orientation_trials",
             K::Count,
             D::Count(2000),
@@ -586,6 +602,11 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         pole_refinement: super::layout::PoleRefinement {
             levels: v.count("refinement.levels").min(u8::MAX as usize) as u8,
             radius: v.number("refinement.radius"),
+        },
+        fa_radius: v.number("fa_radius"),
+        fa_coupling: match v.word("fa_coupling") {
+            "distributing" => crate::cell::fa_plaque::FaCoupling::Distributing,
+            _ => crate::cell::fa_plaque::FaCoupling::Rigid,
         },
     };
     let materials = SuspendedCellMaterials {

@@ -689,3 +689,70 @@ fn split_filaments_are_embedded_on_their_chords_and_the_engine_term_builder_refu
         }
     }
 }
+
+#[test]
+fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
+    use crate::cell::fa_plaque::FaCoupling;
+    let plain = default_geometry();
+    assert_eq!(plain.report.fa_plaque_nodes, 0);
+    assert_eq!(
+        plain.ties, plain.hanging,
+        "no plaque: the ties are the hanging nodes'"
+    );
+    let surface: std::collections::HashSet<usize> =
+        plain.mesh.node_sets["surface"].iter().copied().collect();
+    let radius = 3.5;
+    for coupling in [FaCoupling::Rigid, FaCoupling::Distributing] {
+        let g = SuspendedCellGeometry::build(&SuspendedCellParams {
+            fa_radius: radius,
+            fa_coupling: coupling,
+            ..Default::default()
+        })
+        .unwrap();
+        // The plaques change ties only: the mesh and the FAs stay where they were.
+        assert_eq!(g.mesh.nodes, plain.mesh.nodes);
+        assert_eq!(g.fa_nodes, plain.fa_nodes);
+        // Every surface node within the radius of an FA (other than the FA) is in a plaque:
+        // the default mesh's surface spacing (~2.1 µm) puts several in each.
+        let near: usize = plain.mesh.node_sets["surface"]
+            .iter()
+            .filter(|&&n| {
+                !plain.fa_nodes.contains(&n)
+                    && plain.fa_nodes.iter().any(|&f| {
+                        crate::cell::vec3::distance(plain.mesh.nodes[n], plain.mesh.nodes[f])
+                            <= radius
+                    })
+            })
+            .count();
+        assert_eq!(g.report.fa_plaque_nodes, near, "{coupling:?}");
+        assert!(near >= 4 * 30, "{near} plaque nodes for 30 FAs");
+        let tied: Vec<usize> = g.ties.iter().map(|t| t.node).collect();
+        for t in &g.ties {
+            let weights: f64 = t.masters.iter().map(|m| m.1).sum();
+            assert!((weights - 1.0).abs() < 1e-12, "{t:?}");
+            for &(m, _) in &t.masters {
+                assert!(!tied.contains(&m), "no chains: {t:?}");
+            }
+            match coupling {
+                // Each plaque node follows its FA node.
+                FaCoupling::Rigid => {
+                    assert!(surface.contains(&t.node) && !g.fa_nodes.contains(&t.node));
+                    assert_eq!(t.masters.len(), 1);
+                    assert!(g.fa_nodes.contains(&t.masters[0].0));
+                }
+                // Each FA node follows the mean of its plaque's nodes.
+                FaCoupling::Distributing => {
+                    assert!(g.fa_nodes.contains(&t.node));
+                    assert!(t.masters.iter().all(|&(m, _)| surface.contains(&m)));
+                    let w = 1.0 / t.masters.len() as f64;
+                    assert!(t.masters.iter().all(|m| (m.1 - w).abs() < 1e-15));
+                }
+            }
+        }
+        let expected_ties = match coupling {
+            FaCoupling::Rigid => near,
+            FaCoupling::Distributing => 30,
+        };
+        assert_eq!(g.ties.len(), expected_ties, "{coupling:?}");
+    }
+}

@@ -1,0 +1,108 @@
+//! FA plaques: the surface nodes within a radius of a focal adhesion's node, tied to it so
+//! that the filaments anchored there pull on a patch rather than on one node (the spec,
+//! suspended cell: "if a single node cannot carry the load, an FA may be a small patch of
+//! surface nodes tied together"). Shared by the adherent and the suspended cell.
+
+use cellmech_fem::mesh::Mesh;
+
+/// How an FA's plaque (the surface nodes within `fa_radius` of the FA node) carries the pull
+/// of the filaments anchored at the FA node: the two couplings of commercial codes
+/// (Abaqus `*COUPLING`, `KINEMATIC` or `DISTRIBUTING`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaCoupling {
+    /// Kinematic: every plaque node moves with the FA node, a rigid disc in translation.
+    Rigid,
+    /// Distributing: the FA node moves with the plaque nodes' mean (uniform weights) and
+    /// its load is shared among them equally; the plaque deforms with the surface.
+    Distributing,
+}
+
+/// Couples every node of `surface` within `radius` of an FA node (the nearest FA when
+/// several; nodes for which `skip` holds are left alone) to it, so that the FA is a plaque
+/// rather than one node: a single node cannot carry a filament's pull where the mesh is
+/// refined (a point force on ever smaller elements; the adherent receptor's prestress
+/// stalls at 1 % of the ramp, and the suspended cell's elements at its FA nodes fold over in
+/// compression). [`FaCoupling::Rigid`] ties each plaque node to
+/// the FA node, and hanging-node ties whose masters fall in a plaque are rewritten onto
+/// the FA node; [`FaCoupling::Distributing`] ties the FA node to its plaque nodes with
+/// equal weights, and hanging-node ties whose masters include an FA node are rewritten
+/// onto its plaque nodes (an FA whose plaque holds no free node stays a single node). No
+/// chains either way; hanging nodes keep their own ties. Returns the ties and the number of
+/// plaque nodes.
+pub(crate) fn tie_fa_plaques(
+    mesh: &Mesh,
+    hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    surface: &[usize],
+    skip: impl Fn(usize) -> bool,
+    fa_nodes: &[usize],
+    radius: f64,
+    coupling: FaCoupling,
+) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
+    use cellmech_fem::mesh::refine::HangingNode;
+    use std::collections::{BTreeMap, HashSet};
+    if radius <= 0.0 {
+        return (hanging, 0);
+    }
+    let tied: HashSet<usize> = hanging.iter().map(|h| h.node).collect();
+    let fas: HashSet<usize> = fa_nodes.iter().copied().collect();
+    let mut plaque: BTreeMap<usize, usize> = BTreeMap::new();
+    for &n in surface {
+        if fas.contains(&n) || tied.contains(&n) || skip(n) {
+            continue;
+        }
+        let nearest = fa_nodes
+            .iter()
+            .map(|&f| (crate::cell::vec3::distance(mesh.nodes[n], mesh.nodes[f]), f))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((d, f)) = nearest {
+            if d <= radius {
+                plaque.insert(n, f);
+            }
+        }
+    }
+    let count = plaque.len();
+    // What each node a tie may name stands for: (node, weight) pairs of free nodes.
+    let stands_for: BTreeMap<usize, Vec<(usize, f64)>> = match coupling {
+        FaCoupling::Rigid => plaque.iter().map(|(&n, &f)| (n, vec![(f, 1.0)])).collect(),
+        FaCoupling::Distributing => {
+            let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+            for (&n, &f) in &plaque {
+                members.entry(f).or_default().push(n);
+            }
+            members
+                .into_iter()
+                .map(|(f, nodes)| {
+                    let w = 1.0 / nodes.len() as f64;
+                    (f, nodes.into_iter().map(|n| (n, w)).collect())
+                })
+                .collect()
+        }
+    };
+    let mut ties: Vec<HangingNode> = hanging
+        .into_iter()
+        .map(|h| {
+            let mut masters: BTreeMap<usize, f64> = BTreeMap::new();
+            for (m, w) in h.masters {
+                match stands_for.get(&m) {
+                    Some(parts) => {
+                        for &(p, v) in parts {
+                            *masters.entry(p).or_insert(0.0) += w * v;
+                        }
+                    }
+                    None => *masters.entry(m).or_insert(0.0) += w,
+                }
+            }
+            HangingNode {
+                node: h.node,
+                masters: masters.into_iter().collect(),
+            }
+        })
+        .collect();
+    ties.extend(
+        stands_for
+            .into_iter()
+            .map(|(node, masters)| HangingNode { node, masters }),
+    );
+    (ties, count)
+}
