@@ -666,65 +666,73 @@ mod tests {
         assert_eq!(s.bars[1].span(), 0.0);
     }
 
-    /// A completed case whose path needed the viscosity says so in the table, in its own
-    /// section of the report and in `study.csv`; a clean case does not.
+    /// The report (`report.md`, `study.csv`) of an AF disruption study whose `no-actin`
+    /// case `change` edits (the control stays clean).
+    fn report_with_changed_case(tag: &str, change: impl Fn(&mut CaseRecord)) -> (String, String) {
+        let dir = std::env::temp_dir().join(format!("cellmech-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let (spec, cases) = actin_disruption();
+        let records: Vec<Option<CaseRecord>> = cases
+            .iter()
+            .map(|c| {
+                let mut r = record(c, Some(2.0));
+                if c.name != "control" {
+                    change(&mut r);
+                }
+                Some(r)
+            })
+            .collect();
+        write_report(&spec, &cases, &records, &dir).unwrap();
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        let csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        (md, csv)
+    }
+
+    /// `study.csv`'s values in `columns`, per case name.
+    fn csv_values(csv: &str, columns: &[&str]) -> Vec<(String, Vec<String>)> {
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at: Vec<usize> = columns
+            .iter()
+            .map(|c| header.iter().position(|h| h == c).unwrap())
+            .collect();
+        lines
+            .map(|line| {
+                let v: Vec<&str> = line.split(',').collect();
+                (
+                    v[0].to_string(),
+                    at.iter().map(|&k| v[k].to_string()).collect(),
+                )
+            })
+            .collect()
+    }
+
     /// A case whose mesh stopped representing the model (a folded element, a tip between
     /// the nodes) says from where, in `study.csv` and the report: the earlier of the two.
     #[test]
     fn a_mesh_that_went_invalid_is_reported_from_the_first_depth() {
-        let dir = std::env::temp_dir().join(format!("cellmech-fold-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let (spec, cases) = actin_disruption();
-        let records: Vec<Option<CaseRecord>> = cases
-            .iter()
-            .map(|c| {
-                let mut r = record(c, Some(2.0));
-                if c.name != "control" {
-                    r.folds_at_um = Some(1.675);
-                    r.tip_passes_between_nodes_at_um = Some(1.775);
-                }
-                Some(r)
-            })
-            .collect();
-        write_report(&spec, &cases, &records, &dir).unwrap();
-        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        let (md, csv) = report_with_changed_case("fold", |r| {
+            r.folds_at_um = Some(1.675);
+            r.tip_passes_between_nodes_at_um = Some(1.775);
+        });
         assert!(md.contains("- `no-actin`: from 1.675 µm"), "{md}");
         assert!(!md.contains("- `control`: from"), "{md}");
-        let csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
-        let mut lines = csv.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let col = header
-            .iter()
-            .position(|h| *h == "mesh_invalid_from_um")
-            .unwrap();
-        for line in lines {
-            let v: Vec<&str> = line.split(',').collect();
-            let want = if v[0] == "control" { "" } else { "1.6750" };
-            assert_eq!(v[col], want, "{line}");
+        for (case, v) in csv_values(&csv, &["mesh_invalid_from_um"]) {
+            let want = if case == "control" { "" } else { "1.6750" };
+            assert_eq!(v, [want], "{case}");
         }
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
+    /// A completed case whose path needed the viscosity says so in the table, in its own
+    /// section of the report and in `study.csv`; a clean case does not.
     #[test]
     fn a_stabilised_path_is_reported_not_hidden() {
-        let dir = std::env::temp_dir().join(format!("cellmech-stab-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let (spec, cases) = actin_disruption();
-        let records: Vec<Option<CaseRecord>> = cases
-            .iter()
-            .map(|c| {
-                let mut r = record(c, Some(2.0));
-                if c.name != "control" {
-                    r.stabilized_increments = 25;
-                    r.dissipated_fraction = 0.68;
-                }
-                Some(r)
-            })
-            .collect();
-        write_report(&spec, &cases, &records, &dir).unwrap();
-        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        let (md, csv) = report_with_changed_case("stab", |r| {
+            r.stabilized_increments = 25;
+            r.dissipated_fraction = 0.68;
+        });
         assert!(
             md.contains("## Cases whose path needed viscous stabilisation"),
             "{md}"
@@ -735,21 +743,14 @@ mod tests {
         );
         let section = &md[md.find("## Cases whose path").unwrap()..];
         assert!(!section.contains("`control`"), "{md}");
-        let csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
-        let mut lines = csv.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-        let (n, f) = (col("stabilized_increments"), col("dissipated_fraction"));
-        for line in lines {
-            let v: Vec<&str> = line.split(',').collect();
-            let want = if v[0] == "control" {
-                ("0", "0.0000")
+        for (case, v) in csv_values(&csv, &["stabilized_increments", "dissipated_fraction"]) {
+            let want = if case == "control" {
+                ["0", "0.0000"]
             } else {
-                ("25", "0.6800")
+                ["25", "0.6800"]
             };
-            assert_eq!((v[n], v[f]), want, "{line}");
+            assert_eq!(v, want, "{case}");
         }
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
