@@ -16,6 +16,12 @@ pub enum FaCoupling {
     /// Distributing: the FA node moves with the plaque nodes' mean (uniform weights) and
     /// its load is shared among them equally; the plaque deforms with the surface.
     Distributing,
+    /// Distributing with weights that fall linearly from the FA node to the plaque's rim
+    /// (as the linear weighting method of Abaqus's distributing coupling), each times the
+    /// surface area the node stands for: the load becomes a traction that is largest at the
+    /// FA and vanishes at the rim, the same on every mesh as the mesh is refined, where
+    /// equal weights per node change with the number of nodes in the plaque.
+    DistributingLinear,
 }
 
 /// Couples every node of `surface` within `radius` of an FA node (the nearest FA when
@@ -38,6 +44,7 @@ pub(crate) fn tie_fa_plaques(
     fa_nodes: &[usize],
     radius: f64,
     coupling: FaCoupling,
+    faces: &[[usize; 4]],
 ) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
     use cellmech_fem::mesh::refine::HangingNode;
     use std::collections::{BTreeMap, HashSet};
@@ -65,16 +72,30 @@ pub(crate) fn tie_fa_plaques(
     // What each node a tie may name stands for: (node, weight) pairs of free nodes.
     let stands_for: BTreeMap<usize, Vec<(usize, f64)>> = match coupling {
         FaCoupling::Rigid => plaque.iter().map(|(&n, &f)| (n, vec![(f, 1.0)])).collect(),
-        FaCoupling::Distributing => {
-            let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        FaCoupling::Distributing | FaCoupling::DistributingLinear => {
+            let area = match coupling {
+                FaCoupling::DistributingLinear => nodal_areas(mesh, faces),
+                _ => BTreeMap::new(),
+            };
+            let weight = |n: usize, f: usize| match coupling {
+                FaCoupling::DistributingLinear => {
+                    let d = crate::cell::vec3::distance(mesh.nodes[n], mesh.nodes[f]);
+                    area.get(&n).copied().unwrap_or(0.0) * (1.0 - d / radius).max(0.0)
+                }
+                _ => 1.0,
+            };
+            let mut members: BTreeMap<usize, Vec<(usize, f64)>> = BTreeMap::new();
             for (&n, &f) in &plaque {
-                members.entry(f).or_default().push(n);
+                let w = weight(n, f);
+                if w > 0.0 {
+                    members.entry(f).or_default().push((n, w));
+                }
             }
             members
                 .into_iter()
                 .map(|(f, nodes)| {
-                    let w = 1.0 / nodes.len() as f64;
-                    (f, nodes.into_iter().map(|n| (n, w)).collect())
+                    let total: f64 = nodes.iter().map(|p| p.1).sum();
+                    (f, nodes.into_iter().map(|(n, w)| (n, w / total)).collect())
                 })
                 .collect()
         }
@@ -105,4 +126,19 @@ pub(crate) fn tie_fa_plaques(
             .map(|(node, masters)| HangingNode { node, masters }),
     );
     (ties, count)
+}
+
+/// The surface area each node of `faces` stands for: a quarter of each quad around it
+/// (µm²; a quad's area is half the norm of its diagonals' cross product, exact when flat).
+fn nodal_areas(mesh: &Mesh, faces: &[[usize; 4]]) -> std::collections::BTreeMap<usize, f64> {
+    use crate::cell::vec3::{cross, norm, sub};
+    let mut area = std::collections::BTreeMap::new();
+    for f in faces {
+        let x = |k: usize| mesh.nodes[f[k]];
+        let a = 0.5 * norm(cross(sub(x(2), x(0)), sub(x(3), x(1))));
+        for &n in f {
+            *area.entry(n).or_insert(0.0) += 0.25 * a;
+        }
+    }
+    area
 }

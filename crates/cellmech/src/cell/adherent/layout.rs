@@ -665,6 +665,7 @@ impl AdherentCellGeometry {
             &plaque_owners,
             params.fa_radius,
             params.fa_coupling,
+            &boundary_faces,
         );
         // MTs: the chord from the centrosome to the FA bowed sideways (horizontally).
         let centrosome = params.centrosome();
@@ -905,6 +906,7 @@ mod tests {
             &[fa],
             0.6,
             FaCoupling::Rigid,
+            &[],
         );
         assert_eq!(count, 4);
         for &n in &plaque {
@@ -921,6 +923,7 @@ mod tests {
             &[fa],
             0.6,
             FaCoupling::Distributing,
+            &[],
         );
         assert_eq!(count, 4);
         assert_eq!(distributing.len(), 2);

@@ -55,7 +55,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         p("bundles.diameter", K::Quantity(Length), D::Number(0.25), POS, "actin bundle diameter", SPEC),
         p("bundles.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin bundle prestrain (tension-only trusses)", SPEC),
         p("bundles.fa_radius", K::Quantity(Length), D::Number(0.5), NONNEG, "radius of an FA plaque: the dome nodes within it carry the FA's filaments, as `fa_coupling` says (0: one node)", "choice (spec suspended cell: \"an FA may be a small patch of surface nodes tied together\")"),
-        p("bundles.fa_coupling", K::Choice(&["rigid", "distributing"]), D::Word("rigid"), ANY, "how an FA's plaque carries its filaments' pull: `rigid`, every plaque node moves with the FA node (a rigid disc, Abaqus kinematic coupling); `distributing`, the FA node moves with the plaque nodes' mean and its load is shared among them equally (Abaqus distributing coupling), so the plaque deforms with the cortex", "choice ([adherent cell](adherent-cell.md#fa-plaques-rigid-or-distributing-2026-12-05-eleventh-session): under the AFM tip the rigid plaque acts as a flat punch)"),
+        p("bundles.fa_coupling", K::Choice(&["rigid", "distributing", "distributing-linear"]), D::Word("rigid"), ANY, "how an FA's plaque carries its filaments' pull: `rigid`, every plaque node moves with the FA node (a rigid disc, Abaqus kinematic coupling); `distributing`, the FA node moves with the plaque nodes' mean and its load is shared among them equally (Abaqus distributing coupling), so the plaque deforms with the cortex; `distributing-linear`, the same with weights falling linearly to zero at the plaque's rim, times each node's surface area (a traction that does not change with the mesh)", "choice ([adherent cell](adherent-cell.md#fa-plaques-rigid-or-distributing-2026-12-05-eleventh-session): under the AFM tip the rigid plaque acts as a flat punch)"),
         p("receptor", K::Count, D::Absent("the FA farthest from the nucleus centre"), Bounds::new(0.0, true, 127.0, true), "index of the FA indented by `site = \"receptor\"` (FA 2k and 2k + 1 end AB k)", "spec (\"an FA away from the nucleus\")"),
         shared::MICROTUBULES_YOUNGS_MODULUS,
         shared::MICROTUBULES_OUTER_DIAMETER,
@@ -124,6 +124,7 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
         fa_radius: v.number("bundles.fa_radius"),
         fa_coupling: match v.word("bundles.fa_coupling") {
             "distributing" => super::layout::FaCoupling::Distributing,
+            "distributing-linear" => super::layout::FaCoupling::DistributingLinear,
             _ => super::layout::FaCoupling::Rigid,
         },
         mt_elements: shared::mt_elements_from_values(v),

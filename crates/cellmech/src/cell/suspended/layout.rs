@@ -589,6 +589,12 @@ impl SuspendedCellGeometry {
         )?;
         let (mut mesh, hanging, boundary_faces) =
             refine_poles(mesh, params.pole_refinement, cell_radius, nucleus_radius)?;
+        // The surface quads (a pole refinement lists them; a conforming mesh's are found).
+        let surface_faces = if boundary_faces.is_empty() {
+            cellmech_fem::mesh::surface::boundary_quads(&mesh, None).unwrap_or_default()
+        } else {
+            boundary_faces.clone()
+        };
         let (ties, fa_plaque_nodes) = crate::cell::fa_plaque::tie_fa_plaques(
             &mesh,
             hanging.clone(),
@@ -597,6 +603,7 @@ impl SuspendedCellGeometry {
             &fa_nodes,
             params.fa_radius,
             params.fa_coupling,
+            &surface_faces,
         );
         mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
         for (k, &n) in fa_nodes.iter().enumerate() {

@@ -364,10 +364,10 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         ),
         p(
             "fa_coupling",
-            K::Choice(&["rigid", "distributing"]),
+            K::Choice(&["rigid", "distributing", "distributing-linear"]),
             D::Word("rigid"),
             ANY,
-            "how an FA's plaque carries its filaments' pull: `rigid`, every plaque node moves with the FA node (Abaqus kinematic coupling); `distributing`, the FA node moves with the plaque nodes' mean and its load is shared among them equally (Abaqus distributing coupling)",
+            "how an FA's plaque carries its filaments' pull: `rigid`, every plaque node moves with the FA node (Abaqus kinematic coupling); `distributing`, the FA node moves with the plaque nodes' mean and its load is shared among them equally (Abaqus distributing coupling); `distributing-linear`, the same with weights falling linearly to zero at the plaque's rim, times each node's surface area (a traction that does not change with the mesh)",
             CHOICE,
         ),
         p(
@@ -606,6 +606,7 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
         fa_radius: v.number("fa_radius"),
         fa_coupling: match v.word("fa_coupling") {
             "distributing" => crate::cell::fa_plaque::FaCoupling::Distributing,
+            "distributing-linear" => crate::cell::fa_plaque::FaCoupling::DistributingLinear,
             _ => crate::cell::fa_plaque::FaCoupling::Rigid,
         },
     };

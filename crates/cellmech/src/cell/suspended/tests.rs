@@ -702,7 +702,11 @@ fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
     let surface: std::collections::HashSet<usize> =
         plain.mesh.node_sets["surface"].iter().copied().collect();
     let radius = 3.5;
-    for coupling in [FaCoupling::Rigid, FaCoupling::Distributing] {
+    for coupling in [
+        FaCoupling::Rigid,
+        FaCoupling::Distributing,
+        FaCoupling::DistributingLinear,
+    ] {
         let g = SuspendedCellGeometry::build(&SuspendedCellParams {
             fa_radius: radius,
             fa_coupling: coupling,
@@ -718,10 +722,10 @@ fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
             .iter()
             .filter(|&&n| {
                 !plain.fa_nodes.contains(&n)
-                    && plain.fa_nodes.iter().any(|&f| {
-                        crate::cell::vec3::distance(plain.mesh.nodes[n], plain.mesh.nodes[f])
-                            <= radius
-                    })
+                    && plain
+                        .fa_nodes
+                        .iter()
+                        .any(|&f| distance(plain.mesh.nodes[n], plain.mesh.nodes[f]) <= radius)
             })
             .count();
         assert_eq!(g.report.fa_plaque_nodes, near, "{coupling:?}");
@@ -747,11 +751,22 @@ fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
                     let w = 1.0 / t.masters.len() as f64;
                     assert!(t.masters.iter().all(|m| (m.1 - w).abs() < 1e-15));
                 }
+                // Weights falling to the rim: the weighted mean distance from the FA is
+                // below the plain mean.
+                FaCoupling::DistributingLinear => {
+                    assert!(g.fa_nodes.contains(&t.node));
+                    let d = |m: usize| distance(g.mesh.nodes[m], g.mesh.nodes[t.node]);
+                    let weighted: f64 = t.masters.iter().map(|&(m, w)| w * d(m)).sum();
+                    let plain =
+                        t.masters.iter().map(|&(m, _)| d(m)).sum::<f64>() / t.masters.len() as f64;
+                    assert!(weighted < plain, "{weighted} vs {plain}: {t:?}");
+                    assert!(t.masters.iter().all(|&(m, w)| w > 0.0 && d(m) < radius));
+                }
             }
         }
         let expected_ties = match coupling {
             FaCoupling::Rigid => near,
-            FaCoupling::Distributing => 30,
+            FaCoupling::Distributing | FaCoupling::DistributingLinear => 30,
         };
         assert_eq!(g.ties.len(), expected_ties, "{coupling:?}");
     }
