@@ -265,10 +265,11 @@ pub fn write_protocol_results(
                 .map(|&r| point(r).displacement_um);
         }
     }
+    // `+ 0.0`: a fold already there at the reference point reads 0, not −0.
     results.continuum_folds_at_um = curve_rows
         .iter()
         .find(|&&r| corner_ratio[r] <= 0.0)
-        .map(|&r| point(r).displacement_um);
+        .map(|&r| point(r).displacement_um + 0.0);
     let (stem, x_label, x_column) = match kind {
         "micropipette-tension" => ("tension", "elongation (µm)", "elongation_um"),
         "afm-indentation" => (
