@@ -1,7 +1,7 @@
 //! Post-processing of one hex8: volume-averaged Cauchy stress, von Mises stress, maximum
 //! principal logarithmic strain, volume ratio and pressure.
 
-use super::{natural_gradients, point_pressure, Hex8Formulation, Hex8Reference, NODE_NATURAL};
+use super::{point_pressure, Hex8Formulation, Hex8Reference};
 use crate::element::KernelError;
 use crate::material::Hyperelastic;
 use crate::math::eigen3::max_symmetric_eigenvalue;
@@ -102,20 +102,34 @@ pub fn hex8_max_log_strain_between(
 /// are those of an invalid shape. 1 in the reference state and under any rigid motion;
 /// det F under a homogeneous deformation.
 pub fn hex8_min_corner_jacobian_ratio(x0: &[[f64; 3]; 8], u: &[f64; 24]) -> f64 {
-    let mut ratio = f64::INFINITY;
-    for corner in NODE_NATURAL {
-        let dn = natural_gradients(corner);
-        let (mut j0, mut j) = (Matrix3::<f64>::zeros(), Matrix3::<f64>::zeros());
-        for (a, dna) in dn.iter().enumerate() {
-            for i in 0..3 {
-                let x = x0[a][i] + u[3 * a + i];
-                for k in 0..3 {
-                    j0[(i, k)] += x0[a][i] * dna[k];
-                    j[(i, k)] += x * dna[k];
-                }
-            }
-        }
-        ratio = ratio.min(j.determinant() / j0.determinant());
-    }
-    ratio
+    // At corner a, ∂x/∂ξ_k = s_k (x_a − x_b_k)/2 with b_k the neighbour along ξ_k and s_k
+    // = ±1 the corner's natural coordinate, so the ratio is that of the triple products of
+    // the three edges from a, current over reference (the signs and the 1/8 cancel).
+    let x: [[f64; 3]; 8] =
+        std::array::from_fn(|a| std::array::from_fn(|i| x0[a][i] + u[3 * a + i]));
+    let triple = |p: &[[f64; 3]; 8], a: usize| {
+        let e: [[f64; 3]; 3] = std::array::from_fn(|k| {
+            let b = CORNER_NEIGHBOURS[a][k];
+            std::array::from_fn(|i| p[a][i] - p[b][i])
+        });
+        e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
+            - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
+            + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])
+    };
+    (0..8)
+        .map(|a| triple(&x, a) / triple(x0, a))
+        .fold(f64::INFINITY, f64::min)
 }
+
+/// The neighbours of each corner along ξ, η and ζ (the node with that natural coordinate
+/// of opposite sign), in the node order of [`NODE_NATURAL`](super::NODE_NATURAL).
+const CORNER_NEIGHBOURS: [[usize; 3]; 8] = [
+    [1, 3, 4],
+    [0, 2, 5],
+    [3, 1, 6],
+    [2, 0, 7],
+    [5, 7, 0],
+    [4, 6, 1],
+    [7, 5, 2],
+    [6, 4, 3],
+];
