@@ -6,8 +6,8 @@
 use cellmech_fem::mesh::Mesh;
 
 /// How an FA's plaque (the surface nodes within `fa_radius` of the FA node) carries the pull
-/// of the filaments anchored at the FA node: the two couplings of commercial codes
-/// (Abaqus `*COUPLING`, `KINEMATIC` or `DISTRIBUTING`).
+/// of the filaments anchored at the FA node: the couplings of commercial codes (Abaqus
+/// `*COUPLING`, `KINEMATIC` or `DISTRIBUTING` with uniform or linear weights).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FaCoupling {
@@ -32,8 +32,10 @@ pub enum FaCoupling {
 /// compression). [`FaCoupling::Rigid`] ties each plaque node to
 /// the FA node, and hanging-node ties whose masters fall in a plaque are rewritten onto
 /// the FA node; [`FaCoupling::Distributing`] ties the FA node to its plaque nodes with
-/// equal weights, and hanging-node ties whose masters include an FA node are rewritten
-/// onto its plaque nodes (an FA whose plaque holds no free node stays a single node). No
+/// equal weights ([`FaCoupling::DistributingLinear`]: weights ∝ the node's share of
+/// `faces`' area × (1 − distance / `radius`)), and hanging-node ties whose masters include
+/// an FA node are rewritten onto its plaque nodes (an FA whose plaque holds no free node,
+/// or none of positive weight, stays a single node). No
 /// chains either way; hanging nodes keep their own ties. Returns the ties and the number of
 /// plaque nodes.
 pub(crate) fn tie_fa_plaques(

@@ -589,11 +589,14 @@ impl SuspendedCellGeometry {
         )?;
         let (mut mesh, hanging, boundary_faces) =
             refine_poles(mesh, params.pole_refinement, cell_radius, nucleus_radius)?;
-        // The surface quads (a pole refinement lists them; a conforming mesh's are found).
-        let surface_faces = if boundary_faces.is_empty() {
-            cellmech_fem::mesh::surface::boundary_quads(&mesh, None).unwrap_or_default()
-        } else {
-            boundary_faces.clone()
+        // The surface quads, for the linear plaque weights only (a pole refinement lists
+        // them; a conforming mesh's are found, which cannot fail on this sphere mesh).
+        let surface_faces = match params.fa_coupling {
+            crate::cell::fa_plaque::FaCoupling::DistributingLinear if boundary_faces.is_empty() => {
+                cellmech_fem::mesh::surface::boundary_quads(&mesh, None).unwrap_or_default()
+            }
+            crate::cell::fa_plaque::FaCoupling::DistributingLinear => boundary_faces.clone(),
+            _ => Vec::new(),
         };
         let (ties, fa_plaque_nodes) = crate::cell::fa_plaque::tie_fa_plaques(
             &mesh,
