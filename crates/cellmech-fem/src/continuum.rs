@@ -161,12 +161,8 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
                 &self.reference_nodes[e],
                 &u_e,
             ));
-            let response = hex8_response(
-                &self.references[e],
-                &self.material,
-                self.formulation,
-                &self.element_displacements(e, u, dof_map),
-            )?;
+            let response =
+                hex8_response(&self.references[e], &self.material, self.formulation, &u_e)?;
             cauchy.extend_from_slice(&response.cauchy);
             von_mises.push(response.von_mises);
             log_strain.push(response.max_principal_log_strain);
