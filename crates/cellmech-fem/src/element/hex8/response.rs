@@ -5,6 +5,7 @@ use super::{point_pressure, Hex8Formulation, Hex8Reference};
 use crate::element::KernelError;
 use crate::material::Hyperelastic;
 use crate::math::eigen3::max_symmetric_eigenvalue;
+use crate::mesh::generate::quality::hex8_corner_jacobians;
 use nalgebra::Matrix3;
 
 /// Element-level stress and strain measures.
@@ -102,34 +103,10 @@ pub fn hex8_max_log_strain_between(
 /// are those of an invalid shape. 1 in the reference state and under any rigid motion;
 /// det F under a homogeneous deformation.
 pub fn hex8_min_corner_jacobian_ratio(x0: &[[f64; 3]; 8], u: &[f64; 24]) -> f64 {
-    // At corner a, ∂x/∂ξ_k = s_k (x_a − x_b_k)/2 with b_k the neighbour along ξ_k and s_k
-    // = ±1 the corner's natural coordinate, so the ratio is that of the triple products of
-    // the three edges from a, current over reference (the signs and the 1/8 cancel).
     let x: [[f64; 3]; 8] =
         std::array::from_fn(|a| std::array::from_fn(|i| x0[a][i] + u[3 * a + i]));
-    let triple = |p: &[[f64; 3]; 8], a: usize| {
-        let e: [[f64; 3]; 3] = std::array::from_fn(|k| {
-            let b = CORNER_NEIGHBOURS[a][k];
-            std::array::from_fn(|i| p[a][i] - p[b][i])
-        });
-        e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
-            - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
-            + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])
-    };
+    let (current, reference) = (hex8_corner_jacobians(&x), hex8_corner_jacobians(x0));
     (0..8)
-        .map(|a| triple(&x, a) / triple(x0, a))
+        .map(|a| current[a] / reference[a])
         .fold(f64::INFINITY, f64::min)
 }
-
-/// The neighbours of each corner along ξ, η and ζ (the node with that natural coordinate
-/// of opposite sign), in the node order of [`NODE_NATURAL`](super::NODE_NATURAL).
-const CORNER_NEIGHBOURS: [[usize; 3]; 8] = [
-    [1, 3, 4],
-    [0, 2, 5],
-    [3, 1, 6],
-    [2, 0, 7],
-    [5, 7, 0],
-    [4, 6, 1],
-    [7, 5, 2],
-    [6, 4, 3],
-];

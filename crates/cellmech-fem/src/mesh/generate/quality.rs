@@ -115,6 +115,19 @@ fn normalized_det(cols: [[f64; 3]; 3]) -> f64 {
     det3(&m)
 }
 
+/// Determinant of the three edge vectors from each corner to its ξ, η, ζ neighbours: 8
+/// times det(∂x/∂ξ) at that corner of the trilinear map (≤ 0 where the element has folded
+/// over or collapsed there).
+pub fn hex8_corner_jacobians(x: &[[f64; 3]; 8]) -> [f64; 8] {
+    std::array::from_fn(|a| {
+        let nb = CORNER_NEIGHBOURS[a];
+        let cols = nb.map(|b| sub(x[b], x[a]));
+        det3(&std::array::from_fn(|i| {
+            std::array::from_fn(|j| cols[j][i])
+        }))
+    })
+}
+
 /// Scaled Jacobian: the smallest determinant of unit edge vectors over the eight corners
 /// and the centre (1 for a cube, ≤ 0 for an inverted or degenerate element).
 pub fn hex8_scaled_jacobian(x: &[[f64; 3]; 8]) -> f64 {
