@@ -74,6 +74,20 @@ pub(crate) fn orientation(nodes: &[[f64; 3]], hex: &[usize]) -> f64 {
     dxi[0] * c[0] + dxi[1] * c[1] + dxi[2] * c[2]
 }
 
+/// Area of the quadrilateral `face` of `nodes` (µm²): half the norm of its diagonals'
+/// cross product, exact when the quad is flat.
+pub fn quad_area(nodes: &[[f64; 3]], face: &[usize; 4]) -> f64 {
+    let x = |a: usize| nodes[face[a]];
+    let d1: [f64; 3] = std::array::from_fn(|i| x(2)[i] - x(0)[i]);
+    let d2: [f64; 3] = std::array::from_fn(|i| x(3)[i] - x(1)[i]);
+    let n = [
+        d1[1] * d2[2] - d1[2] * d2[1],
+        d1[2] * d2[0] - d1[0] * d2[2],
+        d1[0] * d2[1] - d1[1] * d2[0],
+    ];
+    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+}
+
 /// The faces of the hex8 elements of the selected blocks (all hex8 blocks when
 /// `block_filter` is `None`) that belong to exactly one of those elements, ordered so that
 /// the right-hand normal points out of the solid, in element order. Faces shared by two

@@ -130,14 +130,11 @@ pub(crate) fn tie_fa_plaques(
     (ties, count)
 }
 
-/// The surface area each node of `faces` stands for: a quarter of each quad around it
-/// (µm²; a quad's area is half the norm of its diagonals' cross product, exact when flat).
+/// The surface area each node of `faces` stands for: a quarter of each quad around it (µm²).
 fn nodal_areas(mesh: &Mesh, faces: &[[usize; 4]]) -> std::collections::BTreeMap<usize, f64> {
-    use crate::cell::vec3::{cross, norm, sub};
     let mut area = std::collections::BTreeMap::new();
     for f in faces {
-        let x = |k: usize| mesh.nodes[f[k]];
-        let a = 0.5 * norm(cross(sub(x(2), x(0)), sub(x(3), x(1))));
+        let a = cellmech_fem::mesh::surface::quad_area(&mesh.nodes, f);
         for &n in f {
             *area.entry(n).or_insert(0.0) += 0.25 * a;
         }

@@ -239,17 +239,7 @@ pub fn gripped_area(mesh: &Mesh, cap: &[usize]) -> f64 {
     boundary_faces(mesh)
         .iter()
         .filter(|f| f.iter().all(|n| inside.contains(n)))
-        .map(|f| {
-            let x = f.map(|n| mesh.nodes[n]);
-            let d1: [f64; 3] = std::array::from_fn(|c| x[2][c] - x[0][c]);
-            let d2: [f64; 3] = std::array::from_fn(|c| x[3][c] - x[1][c]);
-            let n = [
-                d1[1] * d2[2] - d1[2] * d2[1],
-                d1[2] * d2[0] - d1[0] * d2[2],
-                d1[0] * d2[1] - d1[1] * d2[0],
-            ];
-            0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
-        })
+        .map(|f| cellmech_fem::mesh::surface::quad_area(&mesh.nodes, f))
         .sum()
 }
 
