@@ -147,6 +147,30 @@ impl<M: Hyperelastic> ElementSet for ContinuumBlock<M> {
         )
     }
 
+    fn follows_reference_moves(&self) -> bool {
+        true
+    }
+
+    /// Recomputes the reference data of every element with a moved node.
+    fn on_reference_moved(
+        &mut self,
+        reference: &[[f64; 3]],
+        moved: &[bool],
+        _u: &mut [f64],
+        _dof_map: &DofMap,
+    ) -> Result<(), String> {
+        for (e, conn) in self.connectivity.iter().enumerate() {
+            if !conn.iter().any(|&n| moved.get(n).copied().unwrap_or(false)) {
+                continue;
+            }
+            let x0: [[f64; 3]; 8] = std::array::from_fn(|a| reference[conn[a]]);
+            self.references[e] = Hex8Reference::new(&x0)
+                .map_err(|error| format!("element {e} of set '{}': {error}", self.name))?;
+            self.reference_nodes[e] = x0;
+        }
+        Ok(())
+    }
+
     fn cell_outputs(&self, u: &[f64], dof_map: &DofMap) -> Result<Option<TermOutput>, KernelError> {
         let n = self.connectivity.len();
         let mut cauchy = Vec::with_capacity(6 * n);

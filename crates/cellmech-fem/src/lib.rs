@@ -16,6 +16,7 @@ pub mod linsolve;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod rezone;
 pub mod solve;
 pub mod term;
 pub mod verify;

@@ -103,6 +103,29 @@ pub trait Term: Send + Sync {
     /// Return to the trial state kept by the last [`Term::save_trial`].
     fn restore_trial(&mut self) {}
 
+    /// Whether the term follows moved reference positions ([`Term::move_reference`]): an
+    /// ALE rezoning ([`crate::rezone`]) moves only nodes all of whose terms do.
+    fn follows_reference_moves(&self) -> bool {
+        false
+    }
+
+    /// Some nodes' reference positions moved (an ALE rezoning between steps,
+    /// [`crate::solve::Problem::remap_nodes`]): `reference` holds every node's new reference
+    /// position, `moved[node]` says which changed, and `u` is the remapped state, which the
+    /// term may correct at its moved nodes (a contact puts a node the remapping left inside
+    /// its tool back onto the tool's surface). A term that
+    /// [`Term::follows_reference_moves`] updates its reference geometry and any state kept
+    /// at nodes; the default does nothing (such a term's nodes are never moved).
+    fn move_reference(
+        &mut self,
+        _reference: &[[f64; 3]],
+        _moved: &[bool],
+        _u: &mut [f64],
+        _dof_map: &DofMap,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+
     /// Viscous stabilisation of the relative motions this term defines
     /// ([`crate::solve::Damping::Relative`]): with `Some(drag)`, add to its forces a
     /// viscous force against each relative motion since `drag.u_start` (e.g. a tied node's

@@ -49,6 +49,9 @@ pub struct RunSummary {
     /// Every filament at the last converged increment, and the counts per family (`None`
     /// for a model without filaments).
     pub filaments: Option<crate::output::filaments::FilamentSnapshot>,
+    /// The ALE rezonings between steps, in order (absent when the model has none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub rezonings: Vec<crate::model::RezoneRecord>,
     /// The scenario as parsed (inputs echoed).
     pub input: toml::Table,
     /// Files written, relative to the output directory.
@@ -156,10 +159,16 @@ pub fn run_with_threads(
             .set_threads(threads)
             .map_err(|e| RunError::Output(format!("cannot start {threads} solver threads: {e}")))?;
     }
+    let rezoner = crate::model::Rezoner::new(&scenario.model, &model).map_err(RunError::Output)?;
+    // Every node's reference position: the mesh's, until a rezoning moves some.
+    let mut reference = scenario.model.mesh.nodes.clone();
+    let mut rezonings = Vec::new();
+    // `rezonings.csv`, written as the rezonings happen (created by the first).
+    let mut rezoning_csv: Option<cellmech_io::CurveWriter> = None;
     let mut writer = OutputWriter::new(
         out_dir,
         &model,
-        scenario.model.mesh.nodes.clone(),
+        reference.clone(),
         scenario.model.output.vtk_every,
     )
     .map_err(RunError::Output)?;
@@ -194,6 +203,35 @@ pub fn run_with_threads(
         if let Some(e) = writer.error.take() {
             return Err(RunError::Output(e));
         }
+        if let Some(rezoner) = rezoner.as_ref().filter(|r| r.after(index)) {
+            match rezoner.rezone(&step.name, &mut model.problem, &mut reference) {
+                Ok(Some((record, remaps))) => {
+                    writer.remap(&remaps, &reference, model.problem.dof_map());
+                    if rezoning_csv.is_none() {
+                        rezoning_csv = Some(
+                            cellmech_io::CurveWriter::create(
+                                &out_dir.join("rezonings.csv"),
+                                &crate::model::RezoneRecord::COLUMNS,
+                            )
+                            .map_err(|e| RunError::Output(e.to_string()))?,
+                        );
+                    }
+                    if let Some(csv) = rezoning_csv.as_mut() {
+                        csv.push_row(&record.row(index))
+                            .map_err(|e| RunError::Output(e.to_string()))?;
+                    }
+                    rezonings.push(record);
+                }
+                Ok(None) => {}
+                Err(message) => {
+                    failure = Some(SolveError::InvalidStep {
+                        step: step.name.clone(),
+                        message: format!("the rezoning after the step failed: {message}"),
+                    });
+                    break;
+                }
+            }
+        }
     }
     // The last iteration rows; a write error is reported unless the analysis already
     // failed (its own error says more, and the rows were written at its last cut-back).
@@ -210,14 +248,15 @@ pub fn run_with_threads(
     if writer.last_filaments.is_some() {
         files.push("filaments.csv".into());
     }
+    if rezoning_csv.is_some() {
+        files.push("rezonings.csv".into());
+    }
     files.extend(crate::plots::plot_curves(scenario, &writer, out_dir).map_err(RunError::Output)?);
     // The last converged state as a picture (reference coordinates + displacement).
     let deformed: Vec<[f64; 3]> = {
         let (p, map) = (&model.problem, model.problem.dof_map());
         (0..scenario.model.mesh.num_nodes())
-            .map(|n| {
-                std::array::from_fn(|c| scenario.model.mesh.nodes[n][c] + p.u()[map.dof(n, c)])
-            })
+            .map(|n| std::array::from_fn(|c| reference[n][c] + p.u()[map.dof(n, c)]))
             .collect()
     };
     let picture = format!("deformed.{}", scenario.model.output.plot_format.extension());
@@ -289,6 +328,7 @@ pub fn run_with_threads(
             None => BTreeMap::new(),
         },
         filaments: writer.last_filaments.clone(),
+        rezonings,
         input: scenario.echo.clone(),
         files,
     };

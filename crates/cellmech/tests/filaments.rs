@@ -157,6 +157,7 @@ fn model() -> Analysis {
             embedded: Vec::new(),
             hanging: Vec::new(),
             prestressed_reference: None,
+            rezone: None,
         },
         cell: None,
         echo: toml::Table::new(),

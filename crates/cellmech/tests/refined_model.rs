@@ -128,6 +128,7 @@ fn model() -> (ModelSpec, usize) {
         }],
         hanging: refined.hanging,
         prestressed_reference: None,
+        rezone: None,
     };
     (spec, hanging)
 }

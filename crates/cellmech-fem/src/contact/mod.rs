@@ -1132,6 +1132,66 @@ impl RigidContact {
 impl ElementSet for RigidContact {
     const ELEMENT_DOFS: usize = 12;
 
+    fn follows_reference_moves(&self) -> bool {
+        self.kind == ContactKind::Frictionless
+    }
+
+    /// Moved nodes take their new reference positions (contact nodes, face nodes and
+    /// watched nodes); the contact points' committed positions and the aim follow the
+    /// remapped state. The pressures stay with their points (frictionless contact has no
+    /// other history).
+    fn on_reference_moved(
+        &mut self,
+        reference: &[[f64; 3]],
+        moved: &[bool],
+        u: &mut [f64],
+        dof_map: &DofMap,
+    ) -> Result<(), String> {
+        let is_moved = |n: usize| moved.get(n).copied().unwrap_or(false);
+        if self.kind != ContactKind::Frictionless && self.nodes.iter().any(|&n| is_moved(n)) {
+            return Err(format!(
+                "contact '{}': only frictionless contact nodes can be rezoned",
+                self.name
+            ));
+        }
+        // A moved node lands on the old bilinear surface: under a convex tool that is a
+        // chord inside it (by ℓ²/8R for faces of length ℓ). Put it back on the tool's
+        // surface along the gap's gradient (a few Newton steps on φ = 0).
+        let offset = self.committed.offset;
+        for (k, &node) in self.nodes.iter().enumerate() {
+            if !is_moved(node) {
+                continue;
+            }
+            self.reference[k] = reference[node];
+            let dofs: [usize; 3] = std::array::from_fn(|i| dof_map.dof(node, i));
+            for _ in 0..5 {
+                let x: [f64; 3] = std::array::from_fn(|i| reference[node][i] + u[dofs[i]]);
+                let Some(g) = self.shape.gap(&x, &offset) else {
+                    break;
+                };
+                let norm2: f64 = g.gradient.iter().map(|v| v * v).sum();
+                if g.value >= 0.0 || !(norm2 > 0.0) {
+                    break;
+                }
+                for i in 0..3 {
+                    u[dofs[i]] -= g.value * g.gradient[i] / norm2;
+                }
+            }
+        }
+        for (node, x0) in &mut self.watched {
+            if is_moved(*node) {
+                *x0 = reference[*node];
+            }
+        }
+        for e in 0..self.point_count() {
+            self.committed_positions[e] = self.position(e, u, dof_map);
+        }
+        if let Some(aim) = &mut self.aim {
+            aim.committed = std::array::from_fn(|i| u[dof_map.dof(aim.node, i)]);
+        }
+        Ok(())
+    }
+
     fn set_name(&self) -> &str {
         &self.name
     }

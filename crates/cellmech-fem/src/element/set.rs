@@ -127,6 +127,23 @@ pub trait ElementSet: Send + Sync {
     /// Back to the kept trial state ([`Term::restore_trial`]).
     fn on_restore_trial(&mut self) {}
 
+    /// Whether the set follows moved reference positions ([`Term::follows_reference_moves`]).
+    fn follows_reference_moves(&self) -> bool {
+        false
+    }
+
+    /// Reference positions of some nodes moved ([`Term::move_reference`]). Default: the
+    /// set keeps no reference geometry of its own.
+    fn on_reference_moved(
+        &mut self,
+        _reference: &[[f64; 3]],
+        _moved: &[bool],
+        _u: &mut [f64],
+        _dof_map: &DofMap,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+
     /// Viscous drag of the set's relative motions ([`Term::set_drag`]).
     fn on_drag(&mut self, _drag: Option<&Drag<'_>>, _dof_map: &DofMap) -> bool {
         false
@@ -182,6 +199,20 @@ impl<S: ElementSet> Term for S {
 
     fn set_load_state(&mut self, state: &LoadState) {
         self.on_load_state(state)
+    }
+
+    fn follows_reference_moves(&self) -> bool {
+        ElementSet::follows_reference_moves(self)
+    }
+
+    fn move_reference(
+        &mut self,
+        reference: &[[f64; 3]],
+        moved: &[bool],
+        u: &mut [f64],
+        dof_map: &DofMap,
+    ) -> Result<(), String> {
+        self.on_reference_moved(reference, moved, u, dof_map)
     }
 
     fn predict(&mut self, u: &[f64], dof_map: &DofMap) {

@@ -15,6 +15,7 @@ mod problem;
 mod reduced;
 mod relax;
 mod report;
+mod rezoned;
 mod stabilize;
 mod step;
 
@@ -26,6 +27,7 @@ pub use error::{FailureReason, SolveError};
 pub use problem::{NullObserver, Observer, Problem, Timings, JUMP_WIDTH};
 pub use relax::RelaxationStats;
 pub use report::{IncrementReport, IterationReport};
+pub use rezoned::remap_translations;
 pub use stabilize::StabilizationReport;
 pub use step::{GuessPath, Monitor, Motion, NodalLoad, Step, StopCondition};
 

@@ -7,11 +7,13 @@
 pub mod filament;
 pub mod filaments;
 pub mod prestressed_reference;
+pub mod rezoning;
 mod spec;
 pub mod structures;
 pub mod tools;
 
 pub use prestressed_reference::{PrestressedReference, PrestressedReferenceReport};
+pub use rezoning::{RezoneRecord, RezoneSpec, Rezoner};
 pub use spec::{
     curve_columns, CurveSpec, EmbedSpec, MaterialAssignment, ModelSpec, OutputSpec, PlotFormat,
     ShapeProbeSpec, StepSpec,

@@ -40,6 +40,8 @@ pub struct ModelSpec {
     /// Beam families stress-free in the state the first step carries the continuum to
     /// (see [`super::prestressed_reference`]); `None`: stress-free in the mesh.
     pub prestressed_reference: Option<super::PrestressedReference>,
+    /// ALE rezoning of a continuum region between steps (`None`: a Lagrangian mesh).
+    pub rezone: Option<super::RezoneSpec>,
 }
 
 /// Nodes embedded in host continuum blocks: each node's translations follow the host

@@ -128,6 +128,23 @@ pub struct OutputWriter {
 }
 
 impl OutputWriter {
+    /// After an ALE rezoning: the new reference positions of every node, and the earlier
+    /// states kept (the test's reference state) mapped onto the moved nodes.
+    pub fn remap(
+        &mut self,
+        remaps: &[cellmech_fem::rezone::NodeRemap],
+        reference: &[[f64; 3]],
+        dof_map: &cellmech_fem::dof::DofMap,
+    ) {
+        self.nodes = reference.to_vec();
+        for u in [&mut self.u_reference, &mut self.reference_candidate]
+            .into_iter()
+            .flatten()
+        {
+            cellmech_fem::solve::remap_translations(remaps, dof_map, u);
+        }
+    }
+
     /// Creates the output files in `dir` (which must exist) for this model.
     pub fn new(
         dir: &Path,

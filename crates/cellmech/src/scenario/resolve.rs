@@ -131,13 +131,14 @@ pub fn resolve(
             super::tools::resolve(origin, text, &raw, &mesh, &materials, steps)?
         }
     };
-    let (supports, shape_probes, embedded, hanging, prestressed_reference) = match &cell {
+    let (supports, shape_probes, embedded, hanging, prestressed_reference, rezone) = match &cell {
         Some(c) => (
             c.model.supports.clone(),
             c.model.shape_probes.clone(),
             c.model.embedded.clone(),
             c.model.hanging.clone(),
             c.model.prestressed_reference.clone(),
+            c.model.rezone.clone(),
         ),
         None => Default::default(),
     };
@@ -160,6 +161,7 @@ pub fn resolve(
             embedded,
             hanging,
             prestressed_reference,
+            rezone,
         },
         cell: study,
         echo,

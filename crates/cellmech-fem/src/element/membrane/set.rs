@@ -238,6 +238,41 @@ impl ElementSet for MembraneSet {
         &self.connectivity[e * per..(e + 1) * per]
     }
 
+    fn follows_reference_moves(&self) -> bool {
+        true
+    }
+
+    /// Recomputes the reference data of every element with a moved node (the membrane is
+    /// hyperelastic: its state is its deformation alone).
+    fn on_reference_moved(
+        &mut self,
+        reference: &[[f64; 3]],
+        moved: &[bool],
+        _u: &mut [f64],
+        _dof_map: &DofMap,
+    ) -> Result<(), String> {
+        let per = self.per();
+        let name = &self.name;
+        let is_moved = |n: usize| moved.get(n).copied().unwrap_or(false);
+        for (e, conn) in self.connectivity.chunks_exact(per).enumerate() {
+            if !conn.iter().any(|&n| is_moved(n)) {
+                continue;
+            }
+            let wrap = |error: KernelError| format!("element {e} of membrane '{name}': {error}");
+            match &mut self.references {
+                References::Quad4(r) => {
+                    r[e] = Quad4Reference::new(std::array::from_fn(|a| reference[conn[a]]))
+                        .map_err(wrap)?;
+                }
+                References::Tri3(r) => {
+                    r[e] = Tri3Reference::new(std::array::from_fn(|a| reference[conn[a]]))
+                        .map_err(wrap)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn evaluate_element(
         &self,
         e: usize,

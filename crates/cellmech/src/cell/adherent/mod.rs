@@ -305,6 +305,7 @@ impl AdherentCell {
                 embedded: self.coupling.embeddings(),
                 hanging: geometry.hanging.clone(),
                 prestressed_reference: self.coupling.prestressed_reference(),
+                rezone: None,
             },
             description,
             surface_set: "dome".into(),

@@ -823,6 +823,7 @@ impl SuspendedCell {
                 .concat(),
                 hanging: parts.geometry.ties.clone(),
                 prestressed_reference: self.coupling.prestressed_reference(),
+                rezone: None,
             },
             description,
             surface_set: "surface".into(),
