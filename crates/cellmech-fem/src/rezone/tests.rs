@@ -25,6 +25,38 @@ fn boundary(mesh: &Mesh) -> Vec<bool> {
     on
 }
 
+/// Reference and current positions of every node after `rezoning`.
+fn rezoned(
+    rezoning: &Rezoning,
+    reference: &[[f64; 3]],
+    current: &[[f64; 3]],
+) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let (mut x0, mut x) = (reference.to_vec(), current.to_vec());
+    for remap in &rezoning.remaps {
+        x0[remap.node] = remap.apply(reference);
+        x[remap.node] = remap.apply(current);
+    }
+    (x0, x)
+}
+
+/// Asserts that every target of `motion` is where `expected` puts its node (to 1e-9).
+fn assert_motion_is(motion: &MeshMotion, expected: &[[f64; 3]], what: &str) {
+    let targets = motion
+        .surface
+        .iter()
+        .map(|(n, p)| (*n, p.x))
+        .chain(motion.interior.iter().copied());
+    for (n, x) in targets {
+        for c in 0..3 {
+            assert!(
+                (x[c] - expected[n][c]).abs() < 1e-9,
+                "{what}: node {n} at {x:?}, expected {:?}",
+                expected[n]
+            );
+        }
+    }
+}
+
 fn apply(f: &[[f64; 3]; 3], x: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|i| (0..3).map(|j| f[i][j] * x[j]).sum())
 }
@@ -99,13 +131,11 @@ fn a_rezoned_homogeneous_state_stays_exact_and_in_equilibrium() {
     let rezoning = remap_to(&input, &targets, Vec::new()).unwrap();
     assert_eq!(rezoning.unlocated, 0);
     assert_eq!(rezoning.remaps.len(), targets.len() + 1);
-    let (mut x0, mut x) = (reference.clone(), current.clone());
     for remap in &rezoning.remaps {
         let weight: f64 = remap.sources.iter().map(|s| s.1).sum();
         assert!((weight - 1.0).abs() < 1e-12, "{remap:?}");
-        x0[remap.node] = remap.apply(&reference);
-        x[remap.node] = remap.apply(&current);
     }
+    let (x0, x) = rezoned(&rezoning, &reference, &current);
     for n in 0..reference.len() {
         let fx = apply(&f, x0[n]);
         for c in 0..3 {
@@ -332,29 +362,13 @@ fn surface_nodes_slide_along_the_surface_and_stay_on_it() {
         };
         let motion = mesh_motion(&still).unwrap().expect("nodes may move");
         assert!(motion.surface.len() > 50 && motion.interior.len() > 100);
-        let targets = motion
-            .surface
-            .iter()
-            .map(|(n, p)| (*n, p.x))
-            .chain(motion.interior.iter().copied());
-        for (n, x) in targets {
-            for c in 0..3 {
-                assert!(
-                    (x[c] - stretched[n][c]).abs() < 1e-9,
-                    "{f:?}: node {n} {x:?}"
-                );
-            }
-        }
+        assert_motion_is(&motion, &stretched, &format!("{f:?}"));
         assert_eq!(rezone(&still, Acceptance::Better).unwrap(), None, "{f:?}");
     }
     let rezoning = rezone(&input, Acceptance::Better)
         .unwrap()
         .expect("the swept surface is rezoned");
-    let (mut x0, mut x) = (reference.clone(), current.clone());
-    for remap in &rezoning.remaps {
-        x0[remap.node] = remap.apply(&reference);
-        x[remap.node] = remap.apply(&current);
-    }
+    let (x0, x) = rezoned(&rezoning, &reference, &current);
     let slid = (0..reference.len())
         .filter(|&n| sliding[n] && x0[n] != reference[n])
         .count();
@@ -441,20 +455,7 @@ fn the_mesh_motion_is_exact_through_hanging_nodes() {
     };
     let motion = mesh_motion(&input).unwrap().expect("nodes may move");
     assert!(motion.surface.len() > 20 && motion.interior.len() > 50);
-    let targets = motion
-        .surface
-        .iter()
-        .map(|(n, p)| (*n, p.x))
-        .chain(motion.interior.iter().copied());
-    for (n, x) in targets {
-        for c in 0..3 {
-            assert!(
-                (x[c] - stretched[n][c]).abs() < 1e-9,
-                "node {n}: {x:?} vs {:?}",
-                stretched[n]
-            );
-        }
-    }
+    assert_motion_is(&motion, &stretched, "uniform stretch");
     // The crushed and swept top.
     let flow = |x: [f64; 3]| -> [f64; 3] {
         let r2 = x[0] * x[0] + x[1] * x[1];
@@ -480,11 +481,7 @@ fn the_mesh_motion_is_exact_through_hanging_nodes() {
         .unwrap()
         .expect("the flow is rezoned");
     assert!(rezoning.min_corner_ratio_after > rezoning.min_corner_ratio_before.max(0.0));
-    let (mut x0, mut x) = (reference.clone(), current.clone());
-    for remap in &rezoning.remaps {
-        x0[remap.node] = remap.apply(&reference);
-        x[remap.node] = remap.apply(&current);
-    }
+    let (x0, x) = rezoned(&rezoning, &reference, &current);
     for (h, masters) in &hanging {
         for (p, name) in [(&x0, "reference"), (&x, "current")] {
             let on: [f64; 3] =
