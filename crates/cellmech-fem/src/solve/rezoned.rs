@@ -63,7 +63,8 @@ impl Problem {
 
     /// Applies an ALE rezoning: the remapped nodes' displacements become the weighted
     /// old ones ([`NodeRemap`]), and every term is told the new reference positions
-    /// (`reference`, all nodes). The state is then that of the same deformation on the new
+    /// (`reference`, all nodes). A node that [`Problem::nodes_following_reference_moves`]
+    /// excludes is refused, before anything changes. The state is then that of the same deformation on the new
     /// mesh; the next step re-equilibrates it.
     pub fn remap_nodes(
         &mut self,
@@ -83,6 +84,14 @@ impl Problem {
                 return Err(format!("rezoning: node {} out of range", remap.node));
             }
             moved[remap.node] = true;
+        }
+        let movable = self.nodes_following_reference_moves();
+        if let Some(remap) = remaps.iter().find(|r| !movable[r.node]) {
+            return Err(format!(
+                "rezoning: node {} is used by a term that does not follow moved reference \
+                 positions (a filament, a bonded contact, ...) and cannot be moved",
+                remap.node
+            ));
         }
         remap_translations(remaps, &self.dof_map, &mut self.u);
         for term in &mut self.terms {

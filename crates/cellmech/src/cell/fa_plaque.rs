@@ -38,8 +38,9 @@ pub enum FaCoupling {
 /// or none of positive weight, stays a single node). No
 /// chains either way; hanging nodes keep their own ties. Returns the ties and the number of
 /// plaque nodes.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn tie_fa_plaques(
-    mesh: &Mesh,
+    mesh: &mut Mesh,
     hanging: Vec<cellmech_fem::mesh::refine::HangingNode>,
     surface: &[usize],
     skip: impl Fn(usize) -> bool,
@@ -47,11 +48,16 @@ pub(crate) fn tie_fa_plaques(
     radius: f64,
     coupling: FaCoupling,
     faces: &[[usize; 4]],
-) -> (Vec<cellmech_fem::mesh::refine::HangingNode>, usize) {
+    reference: FaReference,
+) -> FaPlaques {
     use cellmech_fem::mesh::refine::HangingNode;
     use std::collections::{BTreeMap, HashSet};
     if radius <= 0.0 {
-        return (hanging, 0);
+        return FaPlaques {
+            ties: hanging,
+            plaque_nodes: 0,
+            references: BTreeMap::new(),
+        };
     }
     let tied: HashSet<usize> = hanging.iter().map(|h| h.node).collect();
     let fas: HashSet<usize> = fa_nodes.iter().copied().collect();
@@ -93,6 +99,17 @@ pub(crate) fn tie_fa_plaques(
                     members.entry(f).or_default().push((n, w));
                 }
             }
+            if reference == FaReference::Separate {
+                // The FA node joins its plaque with its full weight (distance 0).
+                for (&f, nodes) in members.iter_mut() {
+                    let own = match coupling {
+                        FaCoupling::DistributingLinear => area.get(&f).copied().unwrap_or(0.0),
+                        _ => 1.0,
+                    };
+                    nodes.push((f, own));
+                    nodes.sort_by_key(|p| p.0);
+                }
+            }
             members
                 .into_iter()
                 .map(|(f, nodes)| {
@@ -102,12 +119,34 @@ pub(crate) fn tie_fa_plaques(
                 .collect()
         }
     };
+    // A separate reference node per FA: appended at the FA node's position and tied to the
+    // plaque (FA node included); the FA node stays a free node, so no tie is rewritten.
+    let mut references = BTreeMap::new();
+    let stands_for: BTreeMap<usize, Vec<(usize, f64)>> =
+        if reference == FaReference::Separate && coupling != FaCoupling::Rigid {
+            stands_for
+                .into_iter()
+                .map(|(f, masters)| {
+                    let r = mesh.nodes.len();
+                    mesh.nodes.push(mesh.nodes[f]);
+                    references.insert(f, r);
+                    (r, masters)
+                })
+                .collect()
+        } else {
+            stands_for
+        };
+    let rewrite: &BTreeMap<usize, Vec<(usize, f64)>> = if references.is_empty() {
+        &stands_for
+    } else {
+        &BTreeMap::new()
+    };
     let mut ties: Vec<HangingNode> = hanging
         .into_iter()
         .map(|h| {
             let mut masters: BTreeMap<usize, f64> = BTreeMap::new();
             for (m, w) in h.masters {
-                match stands_for.get(&m) {
+                match rewrite.get(&m) {
                     Some(parts) => {
                         for &(p, v) in parts {
                             *masters.entry(p).or_insert(0.0) += w * v;
@@ -127,7 +166,36 @@ pub(crate) fn tie_fa_plaques(
             .into_iter()
             .map(|(node, masters)| HangingNode { node, masters }),
     );
-    (ties, count)
+    FaPlaques {
+        ties,
+        plaque_nodes: count,
+        references,
+    }
+}
+
+/// Where a distributing FA plaque's filaments end.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaReference {
+    /// On the FA mesh node, which the coupling ties to its plaque's weighted mean (while it
+    /// stays a corner of the elements around it).
+    FaNode,
+    /// On a separate reference node at the FA's position, tied to the plaque nodes and the
+    /// FA node itself, which stays a free node of the surface (as a commercial code's
+    /// distributing coupling has its own reference node).
+    Separate,
+}
+
+/// What [`tie_fa_plaques`] made.
+#[derive(Debug, Clone)]
+pub(crate) struct FaPlaques {
+    /// The hanging-node ties, rewritten where needed, and the plaques' ties.
+    pub ties: Vec<cellmech_fem::mesh::refine::HangingNode>,
+    /// Surface nodes in a plaque.
+    pub plaque_nodes: usize,
+    /// With [`FaReference::Separate`]: FA node → its reference node (appended to the
+    /// mesh), on which the FA's filaments must end.
+    pub references: std::collections::BTreeMap<usize, usize>,
 }
 
 /// The surface area each node of `faces` stands for: a quarter of each quad around it (µm²).

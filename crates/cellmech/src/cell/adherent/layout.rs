@@ -27,7 +27,7 @@ use cellmech_fem::mesh::Mesh;
 use super::geometry::{
     map_reference_mesh, mesh_report, AdherentMeshReport, AdherentMeshResolution, AdherentShape,
 };
-use crate::cell::fa_plaque::tie_fa_plaques;
+use crate::cell::fa_plaque::{tie_fa_plaques, FaReference};
 use crate::cell::suspended::cytoskeleton::{
     anchor_intermediate_filaments, IfAnchorRule, MicrotubulePath,
 };
@@ -158,6 +158,8 @@ pub struct AdherentCellParams {
     pub fa_radius: f64,
     /// How the plaque carries them ([`FaCoupling`]).
     pub fa_coupling: FaCoupling,
+    /// Where a distributing plaque's filaments end ([`FaReference`]).
+    pub fa_reference: FaReference,
     /// Beam elements per MT.
     pub mt_elements: usize,
     /// Smallest MT bow (fraction of the chord).
@@ -657,16 +659,28 @@ impl AdherentCellGeometry {
             .chain(extra_bundles.iter().flatten())
             .copied()
             .collect();
-        let (hanging, plaque_nodes) = tie_fa_plaques(
-            &mesh,
+        let refinement_hanging = hanging.len();
+        let dome = mesh.node_sets["dome"].clone();
+        let on_base: Vec<bool> = mesh.nodes.iter().map(|x| x[2] <= 1e-9).collect();
+        let plaques = tie_fa_plaques(
+            &mut mesh,
             hanging,
-            &mesh.node_sets["dome"],
-            |n| mesh.nodes[n][2] <= 1e-9,
+            &dome,
+            |n| on_base[n],
             &plaque_owners,
             params.fa_radius,
             params.fa_coupling,
             &boundary_faces,
+            params.fa_reference,
         );
+        let (hanging, plaque_nodes) = (plaques.ties, plaques.plaque_nodes);
+        // Where the filaments of each FA end: the FA node, or its coupling's reference node.
+        let end = |fa: usize| plaques.references.get(&fa).copied().unwrap_or(fa);
+        let bundles: Vec<[usize; 2]> = bundles.iter().map(|&[a, b]| [end(a), end(b)]).collect();
+        let extra_bundles: Vec<[usize; 2]> = extra_bundles
+            .iter()
+            .map(|&[a, b]| [end(a), end(b)])
+            .collect();
         // MTs: the chord from the centrosome to the FA bowed sideways (horizontally).
         let centrosome = params.centrosome();
         if shape.level(centrosome) >= 1.0 || centrosome[2] <= 0.0 {
@@ -724,7 +738,10 @@ impl AdherentCellGeometry {
                 ));
             }
             min_clearance = min_clearance.min(clearance);
-            microtubules.push(mt);
+            microtubules.push(MicrotubulePath {
+                fa_node: end(fa),
+                ..mt
+            });
         }
         // IFs in the unit-nucleus frame.
         let inner = mesh.node_sets["nucleus_surface"].clone();
@@ -760,7 +777,7 @@ impl AdherentCellGeometry {
         let report = AdherentLayoutReport {
             mesh: mesh_quality,
             base_elements,
-            hanging_nodes: hanging.len() - plaque_nodes,
+            hanging_nodes: refinement_hanging,
             fa_plaque_nodes: plaque_nodes,
             max_fa_snap: max_snap,
             bundle_length_range: lengths
@@ -779,7 +796,7 @@ impl AdherentCellGeometry {
             extra_bundles,
             centrosome,
             microtubules,
-            intermediate_filaments: ifs.filaments,
+            intermediate_filaments: ifs.filaments.iter().map(|&[a, b]| [end(a), b]).collect(),
             receptor,
             report,
         })
@@ -868,6 +885,7 @@ mod tests {
     /// tied to the FA node, and the hanging tie names only free nodes. Distributing: the
     /// FA node is tied to its four plaque nodes with weight 1/4 each, and the hanging tie
     /// is rewritten onto them with its weights summing to 1; no master is tied itself.
+    /// Separate reference: a new node carries the coupling, the FA node joins the plaque.
     #[test]
     fn the_fa_plaque_is_rigid_or_distributing() {
         use cellmech_fem::mesh::refine::HangingNode;
@@ -897,51 +915,78 @@ mod tests {
             masters: vec![(fa, 0.5), (plaque[0], 0.5)],
         }];
         let dome = mesh.node_sets["dome"].clone();
-        let base = |n: usize| mesh.nodes[n][2] <= 1e-9;
-        let (rigid, count) = tie_fa_plaques(
-            &mesh,
-            hanging.clone(),
-            &dome,
-            base,
-            &[fa],
-            0.6,
-            FaCoupling::Rigid,
-            &[],
-        );
-        assert_eq!(count, 4);
+        let on_base: Vec<bool> = mesh.nodes.iter().map(|x| x[2] <= 1e-9).collect();
+        let base = |n: usize| on_base[n];
+        let tie = |mesh: &mut Mesh, coupling, reference| {
+            tie_fa_plaques(
+                mesh,
+                hanging.clone(),
+                &dome,
+                base,
+                &[fa],
+                0.6,
+                coupling,
+                &[],
+                reference,
+            )
+        };
+        let rigid = tie(&mut mesh.clone(), FaCoupling::Rigid, FaReference::FaNode);
+        assert_eq!(rigid.plaque_nodes, 4);
         for &n in &plaque {
-            let tie = rigid.iter().find(|h| h.node == n).unwrap();
-            assert_eq!(tie.masters, vec![(fa, 1.0)]);
+            let t = rigid.ties.iter().find(|h| h.node == n).unwrap();
+            assert_eq!(t.masters, vec![(fa, 1.0)]);
         }
-        let h = rigid.iter().find(|h| h.node == bottom).unwrap();
+        let h = rigid.ties.iter().find(|h| h.node == bottom).unwrap();
         assert_eq!(h.masters, vec![(fa, 1.0)]);
-        let (distributing, count) = tie_fa_plaques(
-            &mesh,
-            hanging,
-            &dome,
-            base,
-            &[fa],
-            0.6,
+        let distributing = tie(
+            &mut mesh.clone(),
             FaCoupling::Distributing,
-            &[],
+            FaReference::FaNode,
         );
-        assert_eq!(count, 4);
-        assert_eq!(distributing.len(), 2);
-        let tie = distributing.iter().find(|h| h.node == fa).unwrap();
+        let distributing_ties = &distributing.ties;
+        assert_eq!(distributing.plaque_nodes, 4);
+        assert_eq!(distributing_ties.len(), 2);
+        assert!(distributing.references.is_empty());
+        let t = distributing_ties.iter().find(|h| h.node == fa).unwrap();
         assert_eq!(
-            tie.masters,
+            t.masters,
             plaque.iter().map(|&n| (n, 0.25)).collect::<Vec<_>>()
         );
-        let h = distributing.iter().find(|h| h.node == bottom).unwrap();
+        let h = distributing_ties.iter().find(|h| h.node == bottom).unwrap();
         let sum: f64 = h.masters.iter().map(|m| m.1).sum();
         assert!((sum - 1.0).abs() < 1e-15, "{:?}", h.masters);
         let weight = |n: usize| h.masters.iter().find(|m| m.0 == n).map_or(0.0, |m| m.1);
         assert!((weight(plaque[0]) - (0.5 + 0.125)).abs() < 1e-15);
         assert!((weight(plaque[1]) - 0.125).abs() < 1e-15);
-        let slaves: Vec<usize> = distributing.iter().map(|h| h.node).collect();
-        assert!(distributing
+        let slaves: Vec<usize> = distributing_ties.iter().map(|h| h.node).collect();
+        assert!(distributing_ties
             .iter()
             .all(|h| h.masters.iter().all(|m| !slaves.contains(&m.0))));
+        // A separate reference node: appended at the FA, tied to the plaque and the FA node
+        // (1/5 each); the FA node stays free, and the hanging tie is left as it was.
+        let mut separate_mesh = mesh.clone();
+        let separate = tie(
+            &mut separate_mesh,
+            FaCoupling::Distributing,
+            FaReference::Separate,
+        );
+        let r = mesh.nodes.len();
+        assert_eq!(separate.references.get(&fa), Some(&r));
+        assert_eq!(separate_mesh.nodes.len(), r + 1);
+        assert_eq!(separate_mesh.nodes[r], mesh.nodes[fa]);
+        let t = separate.ties.iter().find(|h| h.node == r).unwrap();
+        let mut expected: Vec<(usize, f64)> =
+            plaque.iter().chain([&fa]).map(|&n| (n, 0.2)).collect();
+        expected.sort_by_key(|m| m.0);
+        assert_eq!(t.masters.len(), 5);
+        for (m, e) in t.masters.iter().zip(&expected) {
+            assert!(m.0 == e.0 && (m.1 - e.1).abs() < 1e-15, "{:?}", t.masters);
+        }
+        assert!(separate.ties.iter().all(|h| h.node != fa));
+        let h = separate.ties.iter().find(|h| h.node == bottom).unwrap();
+        let mut unchanged = vec![(fa, 0.5), (plaque[0], 0.5)];
+        unchanged.sort_by_key(|m| m.0);
+        assert_eq!(h.masters, unchanged);
     }
 
     /// The wanted size: the plateau, the near slope over the graded band, the far slope

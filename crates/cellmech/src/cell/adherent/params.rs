@@ -56,6 +56,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         p("bundles.prestrain", K::Quantity(Dimensionless), D::Number(0.24), Bounds::new(-1.0, false, f64::INFINITY, false), "actin bundle prestrain (tension-only trusses)", SPEC),
         p("bundles.fa_radius", K::Quantity(Length), D::Number(0.5), NONNEG, "radius of an FA plaque: the dome nodes within it carry the FA's filaments, as `fa_coupling` says (0: one node)", "choice (spec suspended cell: \"an FA may be a small patch of surface nodes tied together\")"),
         p("bundles.fa_coupling", K::Choice(&["rigid", "distributing", "distributing-linear"]), D::Word("rigid"), ANY, "how an FA's plaque carries its filaments' pull: `rigid`, every plaque node moves with the FA node (a rigid disc, Abaqus kinematic coupling); `distributing`, the FA node moves with the plaque nodes' mean and its load is shared among them equally (Abaqus distributing coupling), so the plaque deforms with the cortex; `distributing-linear`, the same with weights falling linearly to zero at the plaque's rim, times each node's surface area (a traction that does not change with the mesh)", "choice ([adherent cell](adherent-cell.md#fa-plaques-rigid-or-distributing-2026-12-05-eleventh-session): under the AFM tip the rigid plaque acts as a flat punch)"),
+        p("bundles.fa_reference", K::Choice(&["fa-node", "separate"]), D::Word("fa-node"), ANY, "with a distributing `fa_coupling`: where the FA's filaments end and the coupling's reference point is: the FA mesh node, which then moves with the plaque's weighted mean while it is still a corner of the elements around it, or a separate node at the FA, tied to the plaque nodes and the FA node (which stays a free surface node), as a commercial code's distributing coupling has its own reference node", "choice ([adherent cell](adherent-cell.md): with the FA node as reference the receptor folds in the prestress)"),
         p("receptor", K::Count, D::Absent("the FA farthest from the nucleus centre"), Bounds::new(0.0, true, 127.0, true), "index of the FA indented by `site = \"receptor\"` (FA 2k and 2k + 1 end AB k)", "spec (\"an FA away from the nucleus\")"),
         shared::MICROTUBULES_YOUNGS_MODULUS,
         shared::MICROTUBULES_OUTER_DIAMETER,
@@ -126,6 +127,10 @@ pub fn from_values(v: &ParamValues) -> (AdherentCellParams, AdherentCellMaterial
             "distributing" => super::layout::FaCoupling::Distributing,
             "distributing-linear" => super::layout::FaCoupling::DistributingLinear,
             _ => super::layout::FaCoupling::Rigid,
+        },
+        fa_reference: match v.word("bundles.fa_reference") {
+            "separate" => crate::cell::fa_plaque::FaReference::Separate,
+            _ => crate::cell::fa_plaque::FaReference::FaNode,
         },
         mt_elements: shared::mt_elements_from_values(v),
         mt_bow_min: v.number("microtubules.bow_min"),

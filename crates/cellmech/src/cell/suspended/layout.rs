@@ -598,16 +598,19 @@ impl SuspendedCellGeometry {
             crate::cell::fa_plaque::FaCoupling::DistributingLinear => boundary_faces.clone(),
             _ => Vec::new(),
         };
-        let (ties, fa_plaque_nodes) = crate::cell::fa_plaque::tie_fa_plaques(
-            &mesh,
+        let surface = mesh.node_sets["surface"].clone();
+        let plaques = crate::cell::fa_plaque::tie_fa_plaques(
+            &mut mesh,
             hanging.clone(),
-            &mesh.node_sets["surface"],
+            &surface,
             |_| false,
             &fa_nodes,
             params.fa_radius,
             params.fa_coupling,
             &surface_faces,
+            crate::cell::fa_plaque::FaReference::FaNode,
         );
+        let (ties, fa_plaque_nodes) = (plaques.ties, plaques.plaque_nodes);
         mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
         for (k, &n) in fa_nodes.iter().enumerate() {
             mesh.insert_node_set(format!("fa_{k}"), vec![n]);
