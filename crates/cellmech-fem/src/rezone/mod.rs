@@ -243,7 +243,7 @@ pub struct MeshMotion {
 }
 
 /// The new current positions of the movable and sliding nodes of `input` (`None` when
-/// none may move): the surface displacement made harmonic along the surface, then the
+/// none may move, or when the moving mesh inverts an element on its way): the surface displacement made harmonic along the surface, then the
 /// interior's harmonic extension of every fixed and slid node's mesh motion.
 pub fn mesh_motion(input: &RezoneInput<'_>) -> Result<Option<MeshMotion>, RezoneError> {
     let n = input.reference.len();
