@@ -36,8 +36,11 @@ pub enum FaCoupling {
 /// `faces`' area × (1 − distance / `radius`)), and hanging-node ties whose masters include
 /// an FA node are rewritten onto its plaque nodes (an FA whose plaque holds no free node,
 /// or none of positive weight, stays a single node). No
-/// chains either way; hanging nodes keep their own ties. Returns the ties and the number of
-/// plaque nodes.
+/// chains either way; hanging nodes keep their own ties. With [`FaReference::Separate`] a
+/// distributing coupling gets its own reference node per FA instead (appended to `mesh`,
+/// tied to the plaque and the FA node, which stays free; no tie is rewritten), and the
+/// caller re-points the FA's filaments onto it. Returns the ties, the number of plaque nodes
+/// and the reference nodes ([`FaPlaques`]).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn tie_fa_plaques(
     mesh: &mut Mesh,
