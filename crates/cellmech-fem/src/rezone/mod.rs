@@ -460,6 +460,17 @@ fn harmonic_increment(
             }
         }
     };
+    // The hanging nodes in the active elements: their rows go to their free masters.
+    let mut followers: Vec<usize> = active
+        .iter()
+        .flat_map(|&e| input.elements[e].iter())
+        .filter_map(|&node| match role[node] {
+            Role::Hanging(t) => Some(t),
+            _ => None,
+        })
+        .collect();
+    followers.sort_unstable();
+    followers.dedup();
     // y = Eᵀ K full.
     let multiply = |full: &[f64], scratch: &mut [f64], y: &mut [f64]| {
         for &e in active {
@@ -474,26 +485,14 @@ fn harmonic_increment(
                 scratch[conn[a]] += v;
             }
         }
-        y.iter_mut().for_each(|v| *v = 0.0);
-        let mut seen_hanging = vec![false; input.hanging.len()];
-        for &e in active {
-            for &node in &input.elements[e] {
-                if let Role::Free(i) = role[node] {
-                    y[i] = scratch[node];
-                }
-            }
+        for (yi, &node) in y.iter_mut().zip(free) {
+            *yi = scratch[node];
         }
-        for &e in active {
-            for &node in &input.elements[e] {
-                if let Role::Hanging(t) = role[node] {
-                    if !seen_hanging[t] {
-                        seen_hanging[t] = true;
-                        for &(m, w) in &input.hanging[t].1 {
-                            if let Role::Free(i) = role[m] {
-                                y[i] += w * scratch[node];
-                            }
-                        }
-                    }
+        for &t in &followers {
+            let (h, masters) = &input.hanging[t];
+            for &(m, w) in masters {
+                if let Role::Free(i) = role[m] {
+                    y[i] += w * scratch[*h];
                 }
             }
         }

@@ -61,8 +61,8 @@ impl FacePoint {
 pub(super) struct SurfaceProjector<'a> {
     faces: Vec<[usize; 4]>,
     current: &'a [[f64; 3]],
-    /// Bins of faces (by their inflated boxes) on a uniform grid.
-    origin: [f64; 3],
+    /// Bins of faces (by their inflated boxes) on a uniform grid of this spacing from the
+    /// origin.
     cell: f64,
     bins: std::collections::HashMap<[i64; 3], Vec<usize>>,
 }
@@ -76,7 +76,6 @@ impl<'a> SurfaceProjector<'a> {
                 .fold(0.0, f64::max)
         };
         let cell = faces.iter().map(size).fold(0.0, f64::max).max(1e-12);
-        let origin = [0.0; 3];
         let mut bins: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
         for (k, f) in faces.iter().enumerate() {
             let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -86,10 +85,10 @@ impl<'a> SurfaceProjector<'a> {
                     hi[i] = hi[i].max(current[n][i]);
                 }
             }
-            let key = |v: f64, i: usize| ((v - origin[i]) / cell).floor() as i64;
-            for a in key(lo[0] - cell, 0)..=key(hi[0] + cell, 0) {
-                for b in key(lo[1] - cell, 1)..=key(hi[1] + cell, 1) {
-                    for c in key(lo[2] - cell, 2)..=key(hi[2] + cell, 2) {
+            let key = |v: f64| (v / cell).floor() as i64;
+            for a in key(lo[0] - cell)..=key(hi[0] + cell) {
+                for b in key(lo[1] - cell)..=key(hi[1] + cell) {
+                    for c in key(lo[2] - cell)..=key(hi[2] + cell) {
                         bins.entry([a, b, c]).or_default().push(k);
                     }
                 }
@@ -98,7 +97,6 @@ impl<'a> SurfaceProjector<'a> {
         Self {
             faces,
             current,
-            origin,
             cell,
             bins,
         }
@@ -107,8 +105,7 @@ impl<'a> SurfaceProjector<'a> {
     /// The closest point to `p` on the faces within about one face size of it (`None`
     /// when no face is that near).
     pub fn project(&self, p: [f64; 3]) -> Option<FacePoint> {
-        let key: [i64; 3] =
-            std::array::from_fn(|i| ((p[i] - self.origin[i]) / self.cell).floor() as i64);
+        let key: [i64; 3] = std::array::from_fn(|i| (p[i] / self.cell).floor() as i64);
         let mut best: Option<(f64, FacePoint)> = None;
         for &k in self.bins.get(&key)? {
             let face = self.faces[k];
