@@ -686,6 +686,8 @@ fn toml_number(x: f64, dim: Option<Dimension>) -> String {
     match dim {
         Some(Dimension::Dimensionless) => format!("\"{}%\"", round_percent(100.0 * x)),
         Some(d) => format!("\"{}\"", format_quantity(x, d)),
+        // 1e-8, not 0.00000001 (both are TOML).
+        None if x != 0.0 && x.abs() < 1e-3 => format!("{x:e}"),
         None => format!("{x}"),
     }
 }

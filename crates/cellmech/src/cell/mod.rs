@@ -7,9 +7,11 @@
 
 pub mod adherent;
 pub mod fa_plaque;
+pub mod solver_settings;
 pub mod suspended;
 pub(crate) mod vec3;
 
+pub use solver_settings::SolverSettings;
 pub use suspended::{
     cytoskeleton, geometry, CellGeometryError, FaOrientation, GeometryReport, IfAnchorRule,
     MeshResolution, MicrotubulePath, SuspendedCellGeometry, SuspendedCellParams,

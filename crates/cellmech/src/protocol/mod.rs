@@ -637,12 +637,16 @@ mod tests {
                     cell.params.refinement.element_size = 0.5;
                     cell.params.refinement.grading = 1.0;
                     cell.site = protocol.indentation_site();
+                    cell.solver.residual_tolerance = 2e-7;
+                    cell.solver.energy_tolerance = 3e-11;
                     cell.build().unwrap()
                 } else {
                     let mut cell = SuspendedCell::default();
                     cell.params.mesh.core_divisions = 4;
                     cell.params.mesh.shell_layers = 2;
                     cell.params.mesh.outer_layers = 2;
+                    cell.solver.residual_tolerance = 2e-7;
+                    cell.solver.energy_tolerance = 3e-11;
                     cell.build().unwrap()
                 };
                 assert_eq!(
@@ -662,9 +666,17 @@ mod tests {
                     built.step_control.convergence.method,
                     IterationMethod::Newton
                 );
-                for step in &built.model.steps {
+                for step in std::iter::once(&built.prestress).chain(&built.model.steps) {
                     assert_eq!(
                         step.control.stabilization, built.step_control.stabilization,
+                        "{kind} ({grip}): step {}",
+                        step.name
+                    );
+                    // `solver.residual_tolerance` / `energy_tolerance` reach every step.
+                    let c = &step.control.convergence;
+                    assert_eq!(
+                        (c.residual_tolerance, c.energy_tolerance),
+                        (2e-7, 3e-11),
                         "{kind} ({grip}): step {}",
                         step.name
                     );

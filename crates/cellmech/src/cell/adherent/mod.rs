@@ -101,20 +101,8 @@ pub struct AdherentCell {
     pub components: AdherentComponents,
     /// How the cytoskeleton is tied to the continuum (as in the suspended cell).
     pub coupling: Coupling,
-    /// Viscous stabilisation of every step (`None`: off).
-    pub stabilization: Option<cellmech_fem::solve::Stabilization>,
-    /// How Newton's corrections after the first are computed in every step (`None`:
-    /// `auto`, full Newton except where a protocol measured BFGS to pay:
-    /// [`crate::cell::BuiltCell::auto_iteration`]).
-    pub iteration: Option<cellmech_fem::solve::IterationMethod>,
-    /// Whether every step relaxes the beam filaments by their own Newton solves
-    /// (`solver.relaxation`, nonlinear elimination).
-    pub relaxation: bool,
-    /// Whether full Newton solves with the last factorisation near convergence
-    /// (`solver.chord`).
-    pub chord: bool,
-    /// The rotations' trust region of every step (rad, 0: none; `solver.rotation_step`).
-    pub rotation_step: f64,
+    /// How every analysis step is solved (`[cell.solver]`).
+    pub solver: crate::cell::SolverSettings,
     /// Where the mesh is refined for an indenter (`None`: the base mesh). The AFM protocol
     /// sets it to its site.
     pub site: Option<IndentationSite>,
@@ -137,34 +125,20 @@ impl AdherentCell {
             materials,
             components: AdherentComponents::default(),
             coupling: s::coupling_from_values(values),
-            stabilization: s::stabilization_from_values(values),
-            iteration: s::iteration_from_values(values),
-            relaxation: s::relaxation_from_values(values),
-            chord: s::chord_from_values(values),
-            rotation_step: s::rotation_step_from_values(values),
+            solver: crate::cell::SolverSettings::from_values(values),
             site: None,
         }
     }
 
     /// The base control of every step.
     pub fn step_control(&self) -> cellmech_fem::solve::StepControl {
-        let mut control = cellmech_fem::solve::StepControl {
-            stabilization: self.stabilization,
-            ..Default::default()
-        };
-        control.convergence.method = self
-            .iteration
-            .unwrap_or(cellmech_fem::solve::IterationMethod::Newton);
-        control.convergence.relaxation = self.relaxation;
-        control.convergence.chord_near_convergence = self.chord;
-        control.convergence.max_rotation_step = self.rotation_step;
-        control
+        self.solver.step_control()
     }
 
     /// Builds the cell: refined mesh, materials, structures, the clamped base, and the
     /// prestress step.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
-        crate::cell::suspended::check_damping(self.stabilization, &self.coupling)?;
+        crate::cell::suspended::check_damping(self.solver.stabilization, &self.coupling)?;
         let geometry = AdherentCellGeometry::build(&self.params, self.site)
             .map_err(component("adherent cell"))?;
         let mut mesh = geometry.mesh.clone();
@@ -313,7 +287,7 @@ impl AdherentCell {
             prestress,
             rotation_hold: supports,
             step_control: self.step_control(),
-            auto_iteration: self.iteration.is_none(),
+            auto_iteration: self.solver.iteration.is_none(),
             site: report.site,
         })
     }

@@ -80,6 +80,8 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         shared::SOLVER_RELAXATION,
         shared::SOLVER_CHORD,
         shared::SOLVER_ROTATION_STEP,
+        shared::SOLVER_RESIDUAL_TOLERANCE,
+        shared::SOLVER_ENERGY_TOLERANCE,
         shared::INTERMEDIATE_YOUNGS_MODULUS,
         shared::INTERMEDIATE_DIAMETER,
         shared::INTERMEDIATE_SLACK,

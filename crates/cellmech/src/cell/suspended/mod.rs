@@ -656,20 +656,8 @@ pub struct SuspendedCell {
     pub components: Components,
     /// How the cytoskeleton is tied to the continuum.
     pub coupling: Coupling,
-    /// Viscous stabilisation of every analysis step (`None`: off).
-    pub stabilization: Option<cellmech_fem::solve::Stabilization>,
-    /// How Newton's corrections after the first are computed in every step (`None`:
-    /// `auto`, full Newton except where a protocol measured BFGS to pay:
-    /// [`crate::cell::BuiltCell::auto_iteration`]).
-    pub iteration: Option<cellmech_fem::solve::IterationMethod>,
-    /// Whether every step relaxes the beam filaments by their own Newton solves
-    /// (`solver.relaxation`, nonlinear elimination).
-    pub relaxation: bool,
-    /// Whether full Newton solves with the last factorisation near convergence
-    /// (`solver.chord`).
-    pub chord: bool,
-    /// The rotations' trust region of every step (rad, 0: none; `solver.rotation_step`).
-    pub rotation_step: f64,
+    /// How every analysis step is solved (`[cell.solver]`).
+    pub solver: crate::cell::SolverSettings,
 }
 
 impl Default for SuspendedCell {
@@ -685,17 +673,7 @@ impl SuspendedCell {
     /// The base control of every step: default increments and criteria with the cell's
     /// stabilisation and iteration method.
     pub fn step_control(&self) -> cellmech_fem::solve::StepControl {
-        let mut control = cellmech_fem::solve::StepControl {
-            stabilization: self.stabilization,
-            ..Default::default()
-        };
-        control.convergence.method = self
-            .iteration
-            .unwrap_or(cellmech_fem::solve::IterationMethod::Newton);
-        control.convergence.relaxation = self.relaxation;
-        control.convergence.chord_near_convergence = self.chord;
-        control.convergence.max_rotation_step = self.rotation_step;
-        control
+        self.solver.step_control()
     }
 
     /// The cell from resolved values of [`params::SUSPENDED_CELL`].
@@ -706,18 +684,14 @@ impl SuspendedCell {
             materials,
             components: Components::default(),
             coupling: params::coupling_from_values(values),
-            stabilization: params::stabilization_from_values(values),
-            iteration: params::iteration_from_values(values),
-            relaxation: params::relaxation_from_values(values),
-            chord: params::chord_from_values(values),
-            rotation_step: params::rotation_step_from_values(values),
+            solver: crate::cell::SolverSettings::from_values(values),
         }
     }
 
     /// Builds the cell: mesh, materials, structures, 3-2-1 supports, the nucleus shape
     /// probe, and the prestress step every protocol starts with.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {
-        check_damping(self.stabilization, &self.coupling)?;
+        check_damping(self.solver.stabilization, &self.coupling)?;
         let parts = suspended_cell_parts(&self.params, &self.materials, self.components)?;
         let params = &self.params;
         let report = &parts.geometry.report;
@@ -831,7 +805,7 @@ impl SuspendedCell {
             prestress,
             rotation_hold,
             step_control: self.step_control(),
-            auto_iteration: self.iteration.is_none(),
+            auto_iteration: self.solver.iteration.is_none(),
             site: None,
         })
     }

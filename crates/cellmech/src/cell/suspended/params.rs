@@ -48,6 +48,8 @@ const MESH_COUNT: Bounds = Bounds::new(1.0, true, 64.0, true);
 /// Extra filaments of the density variant (the mesh limits the count further).
 const EXTRA: Bounds = Bounds::new(0.0, true, MAX_EXTRA_FILAMENTS as f64, true);
 const POISSON: Bounds = Bounds::new(-1.0, false, 0.5, false);
+/// A relative convergence tolerance: in (0, 1).
+const TOLERANCE: Bounds = Bounds::new(0.0, false, 1.0, false);
 const SPEC: &str = "spec";
 const CHOICE: &str = "choice";
 
@@ -230,6 +232,10 @@ pub(crate) const SOLVER_RELAXATION: ParamDef = p("solver.relaxation", K::Choice(
 pub(crate) const SOLVER_CHORD: ParamDef = p("solver.chord", K::Choice(&["near-convergence", "off"]), D::Word("near-convergence"), ANY, "full Newton near convergence (residual within 1000 times the tolerance, the last step having divided it at least 100-fold) solves with the last factorisation instead of a new one, while each such chord step divides the residual at least 10-fold; the same convergence criteria, or off (a factorisation at every iteration)", "choice, measured ([performance](performance.md#chord-steps-near-convergence)): default tension 41 -> 31 factorisations, compression 160 -> 109, forces within 8e-9");
 /// `solver.rotation_step` (shared by the cell models).
 pub(crate) const SOLVER_ROTATION_STEP: ParamDef = p("solver.rotation_step", K::Quantity(crate::units::Dimension::Angle), D::Absent("0.2 rad with `microtubules.coupling = \"foundation\"`; no bound otherwise"), NONNEG, "trust region of the beams' rotations: a Newton correction that would turn a filament node by more than this is shortened along its own direction until it does not (an increment's first too, unless it carries a prescribed motion); the same equilibria, a different path; `\"0 rad\"` switches it off", "choice, measured ([performance](performance.md#a-trust-region-on-the-rotations-2026-12-06)): in the compression with MTs on the foundation Newton proposed rotation corrections of 10-900 rad where tied MTs snap through; with full Newton 0.2 rad takes the 50 % step from 257 to 201 factorisations (0.5 rad: no gain, 0.1 rad: 250), forces within 0.03 %; with it BFGS pays there (the whole compression 344 -> 217), and bounding the first correction too takes it to 154 ([performance](performance.md#the-first-correction-too-2026-12-06-stop-43))");
+/// `solver.residual_tolerance` (shared by the cell models).
+pub(crate) const SOLVER_RESIDUAL_TOLERANCE: ParamDef = p("solver.residual_tolerance", K::Number, D::Number(1e-8), TOLERANCE, "Newton's residual criterion: the out-of-balance force at the free DOFs at most this fraction of the force scale (the largest of the external forces, the reactions, the increment's first residual and the internal forces that balance at the free DOFs, so a prestressed cell with no load has one); an increment converges when this and `energy_tolerance` both hold", "choice (tight: the engine's verification default; measured ([performance](performance.md#the-convergence-tolerances-2026-12-06-stop-48)): 1e-6 with `energy_tolerance = 1e-10` takes the default compression from 330 to 254 Newton iterations and moves its forces by at most 1.1e-7 of their value)");
+/// `solver.energy_tolerance` (shared by the cell models).
+pub(crate) const SOLVER_ENERGY_TOLERANCE: ParamDef = p("solver.energy_tolerance", K::Number, D::Number(1e-12), TOLERANCE, "Newton's energy criterion: the work of the last correction against the residual at most this fraction of the increment's first (or of a contact round's first when larger)", "choice (the engine's verification default; see `residual_tolerance`)");
 /// `intermediate.youngs_modulus` (shared by the cell models).
 pub(crate) const INTERMEDIATE_YOUNGS_MODULUS: ParamDef = p(
     "intermediate.youngs_modulus",
@@ -498,6 +504,8 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         SOLVER_RELAXATION,
         SOLVER_CHORD,
         SOLVER_ROTATION_STEP,
+        SOLVER_RESIDUAL_TOLERANCE,
+        SOLVER_ENERGY_TOLERANCE,
         INTERMEDIATE_YOUNGS_MODULUS,
         INTERMEDIATE_DIAMETER,
         INTERMEDIATE_SLACK,
