@@ -206,6 +206,137 @@ fn extra_actin_bundles_are_seeded_chords_between_new_dome_nodes_clear_of_the_nuc
 }
 
 #[test]
+fn extra_adherent_microtubules_and_intermediate_filaments_are_seeded_and_clear_of_the_nucleus() {
+    use cellmech::cell::adherent::AdherentCellGeometry;
+    let with = |bundles, mts, ifs, seed| {
+        let mut p = adherent(bundles, seed);
+        p.extra_microtubules = mts;
+        p.extra_intermediate = ifs;
+        p
+    };
+    let build =
+        |bundles, mts, ifs, seed| AdherentCellGeometry::build(&with(bundles, mts, ifs, seed), None);
+    let base = build(0, 0, 0, 2024).unwrap();
+    assert!(base.extra_microtubules.is_empty() && base.extra_intermediate.is_empty());
+    let g = build(4, 10, 12, 2024).unwrap();
+    assert_eq!(
+        (g.extra_microtubules.len(), g.extra_intermediate.len()),
+        (10, 12)
+    );
+    // The published cytoskeleton is untouched.
+    assert_eq!(g.fa_nodes, base.fa_nodes);
+    assert_eq!(g.microtubules, base.microtubules);
+    assert_eq!(g.intermediate_filaments, base.intermediate_filaments);
+    let params = with(4, 10, 12, 2024);
+    let shape = params.shape;
+    let (c, e) = (shape.nucleus_centre(), shape.nucleus_semi_axes);
+    let nucleus_level = |p: [f64; 3]| (0..3).map(|k| ((p[k] - c[k]) / e[k]).powi(2)).sum::<f64>();
+    let dome: std::collections::BTreeSet<usize> =
+        g.mesh.node_sets["dome"].iter().copied().collect();
+    let inner: std::collections::BTreeSet<usize> = g.mesh.node_sets["nucleus_surface"]
+        .iter()
+        .copied()
+        .collect();
+    // Every extra end: a dome node above the substrate, no FA, no other extra filament's
+    // end, farther than two plaque radii from every FA.
+    let mut used: std::collections::BTreeSet<usize> =
+        g.extra_bundles.iter().flatten().copied().collect();
+    let new_end = |n: usize, used: &mut std::collections::BTreeSet<usize>| {
+        assert!(
+            dome.contains(&n) && g.mesh.nodes[n][2] > 0.0,
+            "node {n} not on the dome"
+        );
+        assert!(
+            g.fa_nodes
+                .iter()
+                .all(|&f| dist(g.mesh.nodes[f], g.mesh.nodes[n]) > 2.0 * params.fa_radius),
+            "node {n} on an FA's plaque"
+        );
+        assert!(used.insert(n), "node {n} reused");
+    };
+    let margin = params.mt_clearance_margin;
+    for mt in &g.extra_microtubules {
+        new_end(mt.fa_node, &mut used);
+        assert_eq!(mt.points[0], g.centrosome);
+        assert_eq!(*mt.points.last().unwrap(), g.mesh.nodes[mt.fa_node]);
+        assert_eq!(mt.points.len(), params.mt_elements + 1);
+        assert!(mt.bow.abs() >= params.mt_bow_min && mt.bow.abs() <= params.mt_bow_max);
+        for p in &mt.points[1..mt.points.len() - 1] {
+            assert!(
+                shape.level(*p) < 1.0 && p[2] > 0.0,
+                "MT point {p:?} outside the cell"
+            );
+            // Clear of the nucleus by the margin (measured, like the layout, in the frame
+            // where the nucleus is the unit sphere, scaled by its smallest semi-axis).
+            assert!(
+                nucleus_level(*p).sqrt() - 1.0 >= margin / e[2] - 1e-9,
+                "MT point {p:?}"
+            );
+        }
+    }
+    let mut anchors = std::collections::BTreeSet::new();
+    for &[a, b] in &g.extra_intermediate {
+        new_end(a, &mut used);
+        assert!(inner.contains(&b) && anchors.insert(b), "anchor {b}");
+        let (pa, pb) = (g.mesh.nodes[a], g.mesh.nodes[b]);
+        for i in 0..200 {
+            let t = i as f64 / 200.0;
+            let p = [0, 1, 2].map(|k| pa[k] + t * (pb[k] - pa[k]));
+            assert!(
+                nucleus_level(p) > 1.0 - 1e-6,
+                "IF {a}-{b} enters the nucleus at t = {t}"
+            );
+        }
+    }
+    // Reproducible; another seed gives other filaments; the MTs' stream is their own (more
+    // IFs do not move them).
+    let again = build(4, 10, 12, 2024).unwrap();
+    assert_eq!(again.extra_microtubules, g.extra_microtubules);
+    assert_eq!(again.extra_intermediate, g.extra_intermediate);
+    assert_ne!(
+        build(4, 10, 12, 7).unwrap().extra_microtubules,
+        g.extra_microtubules
+    );
+    assert_eq!(
+        build(4, 10, 0, 2024).unwrap().extra_microtubules,
+        g.extra_microtubules
+    );
+    // Too many: errors naming the key.
+    for (mts, ifs, key) in [
+        (5000, 0, "cell.microtubules.extra"),
+        (0, 5000, "cell.intermediate.extra"),
+    ] {
+        let err = build(0, mts, ifs, 2024).unwrap_err().to_string();
+        assert!(err.contains(key) && err.contains("at most"), "{err}");
+    }
+    // In the built cell: groups of their own in the families `microtubule` and
+    // `intermediate`, after the published ones.
+    let mut cell = cellmech::cell::adherent::AdherentCell::default();
+    cell.params = with(0, 10, 12, 2024);
+    let built = cell.build().unwrap();
+    let group = |name: &str| {
+        built
+            .model
+            .structures
+            .filaments
+            .iter()
+            .find(|f| f.name == name)
+            .unwrap_or_else(|| panic!("no group {name}"))
+    };
+    let (mt, ifs) = (group("microtubule-extra"), group("intermediate-extra"));
+    assert_eq!(
+        (mt.family.as_str(), mt.filaments.len()),
+        ("microtubule", 10)
+    );
+    assert_eq!(mt.pairs.len(), 10 * params.mt_elements);
+    assert_eq!(
+        (ifs.family.as_str(), ifs.filaments.len()),
+        ("intermediate", 12)
+    );
+    assert_eq!(built.description.params["extra_microtubules"], 10);
+}
+
+#[test]
 fn the_adherent_cell_with_extra_bundles_finds_its_prestressed_equilibrium() {
     let text = |extra: usize| {
         format!(

@@ -75,6 +75,16 @@ pub const BUILTIN: &[BuiltinStudy] = &[
         text: include_str!("../../../../studies/adherent-afm-modulus.toml"),
     },
     BuiltinStudy {
+        name: "adherent-afm-density",
+        summary: "adherent cell, AFM at the apex to 1 um with 16 extra ABs, MTs or IFs at seeded new sites (4 cases)",
+        text: include_str!("../../../../studies/adherent-afm-density.toml"),
+    },
+    BuiltinStudy {
+        name: "adherent-afm-thickness",
+        summary: "adherent cell, AFM at the apex to 1 um with the cortex half and twice as thick (3 cases)",
+        text: include_str!("../../../../studies/adherent-afm-thickness.toml"),
+    },
+    BuiltinStudy {
         name: "adherent-afm-sites",
         summary: "adherent cell, AFM at the apex and at a receptor to 1 um, each with ABs, MTs or every filament removed (8 cases)",
         text: include_str!("../../../../studies/adherent-afm-sites.toml"),

@@ -477,7 +477,7 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
     let mut members = vec![control()];
     let compared = match a.kind.as_str() {
         "density" => {
-            members.extend(density_members(a)?);
+            members.extend(density_members(a, is_adherent(base))?);
             true
         }
         "disruption" => {
@@ -661,8 +661,8 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
     })
 }
 
-/// The `[cell.density]` key of each family a density axis adds filaments to.
-/// (`bundles`: the adherent cell's actin bundles; not in the default list).
+/// The key of each family a density axis adds filaments to, in the suspended cell
+/// (`[cell.density]`; `bundles`: the adherent cell's, not in the default list).
 const DENSITY_KEYS: [(&str, &str); 4] = [
     ("actin", "cell.density.extra_actin"),
     ("microtubule", "cell.density.extra_microtubules"),
@@ -670,17 +670,28 @@ const DENSITY_KEYS: [(&str, &str); 4] = [
     ("bundles", "cell.bundles.extra"),
 ];
 
+/// The same in the adherent cell: its ABs, MTs and IFs each have an `extra` count.
+const ADHERENT_DENSITY_KEYS: [(&str, &str); 3] = [
+    ("bundles", "cell.bundles.extra"),
+    ("microtubule", "cell.microtubules.extra"),
+    ("intermediate", "cell.intermediate.extra"),
+];
+
 /// The members of a `density` axis after its control: each family × each count of extra
 /// filaments (absolute numbers added to the published 60 AFs, 30 MTs, 60 IFs of the
-/// suspended cell, or 8 ABs of the adherent one), one family at a time, labelled
-/// `extra-FAMILY-COUNT`.
-fn density_members(a: &AxisSection) -> Result<Vec<Member>, String> {
-    let families = a.families.clone().unwrap_or_else(|| {
-        DENSITY_KEYS[..3]
-            .iter()
-            .map(|(f, _)| f.to_string())
-            .collect()
-    });
+/// suspended cell, or 8 ABs, 16 MTs, 32 IFs of the adherent one), one family at a time,
+/// labelled `extra-FAMILY-COUNT`. Default families: the model's three (`adherent`: the
+/// base is the adherent cell).
+fn density_members(a: &AxisSection, adherent: bool) -> Result<Vec<Member>, String> {
+    let keys: &[(&str, &str)] = if adherent {
+        &ADHERENT_DENSITY_KEYS
+    } else {
+        &DENSITY_KEYS
+    };
+    let families = a
+        .families
+        .clone()
+        .unwrap_or_else(|| keys[..3].iter().map(|(f, _)| f.to_string()).collect());
     if families.is_empty() {
         return Err("`families`: expected at least one family".into());
     }
@@ -692,14 +703,17 @@ fn density_members(a: &AxisSection) -> Result<Vec<Member>, String> {
     }
     let mut members = Vec::new();
     for family in &families {
-        let key = DENSITY_KEYS
+        let key = keys
             .iter()
             .find(|(f, _)| f == family)
             .map(|(_, k)| *k)
             .ok_or_else(|| {
                 format!(
                     "`families`: expected {}; found \"{family}\"",
-                    DENSITY_KEYS.map(|(f, _)| format!("\"{f}\"")).join(", ")
+                    keys.iter()
+                        .map(|(f, _)| format!("\"{f}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 )
             })?;
         for &count in &counts {
@@ -1065,6 +1079,35 @@ mod tests {
         assert_eq!(
             cases[1].set,
             [("cell.bundles.extra".to_string(), Value::Integer(8))]
+        );
+        // Its default families: ABs, MTs and IFs, each with its own `extra` key; the
+        // suspended cell's `actin` is not one of them.
+        let spec = parse(
+            "base = \"adherent-afm-apex\"\n[[axis]]\nkind = \"density\"\ncounts = [16]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap();
+        let sets: Vec<_> = spec.cases().into_iter().skip(1).map(|c| c.set).collect();
+        assert_eq!(
+            sets,
+            [
+                "cell.bundles.extra",
+                "cell.microtubules.extra",
+                "cell.intermediate.extra"
+            ]
+            .map(|k| vec![(k.to_string(), Value::Integer(16))])
+        );
+        let e = parse(
+            "base = \"adherent-afm-apex\"\n[[axis]]\nkind = \"density\"\nfamilies = [\"actin\"]\n",
+            "test",
+            Path::new("."),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("\"bundles\", \"microtubule\", \"intermediate\""),
+            "{e}"
         );
     }
 

@@ -22,6 +22,8 @@
 //!   farthest from the nucleus centre, ties to the larger x) or the dome point above given
 //!   `(x, y)`. The mesh is refined there (see [`LocalRefinement`]).
 
+use std::collections::HashSet;
+
 use cellmech_fem::mesh::Mesh;
 
 use super::geometry::{
@@ -147,6 +149,11 @@ pub struct AdherentCellParams {
     pub bundles: usize,
     /// Extra ABs of the density variant (0 by default).
     pub extra_bundles: usize,
+    /// Extra MTs of the density variant, from the centrosome to new dome nodes (0 by
+    /// default).
+    pub extra_microtubules: usize,
+    /// Extra IFs of the density variant, from new dome nodes to the nucleus (0 by default).
+    pub extra_intermediate: usize,
     /// Height of the ABs and their FAs above the substrate.
     pub bundle_height: f64,
     /// Fraction of the dome's half width at `bundle_height` the ABs are spread over.
@@ -245,8 +252,14 @@ pub struct AdherentCellGeometry {
     pub centrosome: V3,
     /// One MT per FA.
     pub microtubules: Vec<MicrotubulePath>,
+    /// The density variant's extra MTs, from the centrosome to new dome nodes (none by
+    /// default; see `choose_extra_microtubules`).
+    pub extra_microtubules: Vec<MicrotubulePath>,
     /// IFs as `[FA node, nucleus-surface node]`.
     pub intermediate_filaments: Vec<[usize; 2]>,
+    /// The density variant's extra IFs as `[dome node, nucleus-surface node]` (none by
+    /// default; see `choose_extra_intermediate`).
+    pub extra_intermediate: Vec<[usize; 2]>,
     /// Index of the receptor FA.
     pub receptor: usize,
     /// Measured quality.
@@ -365,6 +378,87 @@ fn turn_radial_line(reference: &mut Mesh, from: V3, to: V3) {
     }
 }
 
+/// The dome nodes the density variant's extra filaments may end on: base-mesh dome nodes
+/// (a local refinement keeps them) above the substrate that are not FAs, lie farther than
+/// two plaque radii from every FA and are not in `taken`; sorted.
+fn free_dome_nodes(
+    params: &AdherentCellParams,
+    mesh: &Mesh,
+    base_nodes: usize,
+    fa_nodes: &[usize],
+    taken: &[usize],
+) -> Vec<usize> {
+    let x = |n: usize| mesh.nodes[n];
+    let taken: HashSet<usize> = taken.iter().copied().collect();
+    let mut ends: Vec<usize> = mesh.node_sets["dome"]
+        .iter()
+        .copied()
+        .filter(|&n| {
+            n < base_nodes
+                && x(n)[2] > 1e-9
+                && !taken.contains(&n)
+                && fa_nodes
+                    .iter()
+                    .all(|&f| f != n && distance(x(f), x(n)) > 2.0 * params.fa_radius)
+        })
+        .collect();
+    ends.sort_unstable();
+    ends.dedup();
+    ends
+}
+
+/// Mixed into the seed for the extra MTs of the density variant.
+const EXTRA_MT_STREAM: u64 = 0x4445_4E53_5F41_4D54;
+/// Mixed into the seed for the extra IFs of the density variant.
+const EXTRA_IF_STREAM: u64 = 0x4445_4E53_5F41_4946;
+
+/// The density variant's `extra_intermediate` IFs: `[dome node, nucleus-surface node]`
+/// pairs whose segment passes outside the nucleus (in the unit-nucleus frame: the surface
+/// node sees the anchor), `ends` the candidate dome nodes; shuffled by a SplitMix64 stream
+/// of `seed` mixed with a constant and taken greedily, each node used once at either end
+/// (`cell::suspended::density`, as the suspended cell's extra IFs).
+fn choose_extra_intermediate(
+    params: &AdherentCellParams,
+    mesh: &Mesh,
+    ends: &[usize],
+) -> Result<Vec<[usize; 2]>, AdherentLayoutError> {
+    use crate::cell::suspended::density::{shuffle, take_pairs};
+    if params.extra_intermediate == 0 {
+        return Ok(Vec::new());
+    }
+    let mut inner = mesh.node_sets["nucleus_surface"].clone();
+    inner.sort_unstable();
+    inner.dedup();
+    let unit = |n: usize| params.to_unit_nucleus(mesh.nodes[n]);
+    let mut pairs = Vec::new();
+    for &a in ends {
+        for &b in &inner {
+            // Strictly outside but for the anchor itself, which lies on the unit sphere.
+            if crate::cell::suspended::cytoskeleton::segment_distance_to_origin(unit(a), unit(b))
+                > 1.0 - 1e-9
+            {
+                pairs.push([a, b]);
+            }
+        }
+    }
+    let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ EXTRA_IF_STREAM);
+    shuffle(&mut pairs, &mut rng);
+    let chosen = take_pairs(&pairs, params.extra_intermediate, false);
+    if chosen.len() < params.extra_intermediate {
+        return Err(fail(
+            "intermediate.extra",
+            format!(
+                "expected cell.intermediate.extra at most {} on this mesh (IFs from distinct \
+                 dome nodes away from the FAs to distinct nucleus-surface nodes they see); \
+                 found {} (lower it or refine the mesh)",
+                chosen.len(),
+                params.extra_intermediate
+            ),
+        ));
+    }
+    Ok(chosen)
+}
+
 /// Mixed into the seed for the extra ABs of the density variant.
 const EXTRA_BUNDLE_STREAM: u64 = 0x4445_4E53_5F41_4253;
 
@@ -388,19 +482,7 @@ fn choose_extra_bundles(
         return Ok(Vec::new());
     }
     let x = |n: usize| mesh.nodes[n];
-    let mut ends: Vec<usize> = mesh.node_sets["dome"]
-        .iter()
-        .copied()
-        .filter(|&n| {
-            n < base_nodes
-                && x(n)[2] > 1e-9
-                && fa_nodes
-                    .iter()
-                    .all(|&f| f != n && distance(x(f), x(n)) > 2.0 * params.fa_radius)
-        })
-        .collect();
-    ends.sort_unstable();
-    ends.dedup();
+    let ends = free_dome_nodes(params, mesh, base_nodes, fa_nodes, &[]);
     let min_length = 0.5 * lengths.iter().cloned().fold(f64::INFINITY, f64::min);
     let mut pairs = Vec::new();
     for (i, &a) in ends.iter().enumerate() {
@@ -654,6 +736,7 @@ impl AdherentCellGeometry {
             .collect();
         // The density variant's extra ABs, and a plaque at each of their ends too.
         let extra_bundles = choose_extra_bundles(params, &mesh, base_nodes, &fa_nodes, &lengths)?;
+        let extra_bundle_ends: Vec<usize> = extra_bundles.iter().flatten().copied().collect();
         let plaque_owners: Vec<usize> = fa_nodes
             .iter()
             .chain(extra_bundles.iter().flatten())
@@ -692,6 +775,30 @@ impl AdherentCellGeometry {
         let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ MT_STREAM);
         let mut microtubules = Vec::with_capacity(fa_nodes.len());
         let mut min_clearance = f64::INFINITY;
+        let min_axis = shape
+            .nucleus_semi_axes
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min);
+        // Where an MT leaves the cell (`Err`), else its clearance from the nucleus (µm, the
+        // unit-nucleus frame's distance scaled by the smallest semi-axis).
+        let mt_clearance = |mt: &MicrotubulePath| -> Result<f64, V3> {
+            if let Some(p) = mt.points[1..mt.points.len() - 1]
+                .iter()
+                .find(|p| shape.level(**p) >= 1.0 || p[2] <= 0.0)
+            {
+                return Err(*p);
+            }
+            let scaled: Vec<V3> = mt
+                .points
+                .iter()
+                .map(|&p| params.to_unit_nucleus(p))
+                .collect();
+            Ok(
+                (crate::cell::suspended::cytoskeleton::polyline_distance_to_origin(&scaled) - 1.0)
+                    * min_axis,
+            )
+        };
         for (k, &fa) in fa_nodes.iter().enumerate() {
             let bow = rng.uniform(params.mt_bow_min, params.mt_bow_max.max(params.mt_bow_min));
             let side = if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 };
@@ -702,47 +809,83 @@ impl AdherentCellGeometry {
                 side * bow,
                 params.mt_elements,
             );
-            if let Some(p) = mt.points[1..mt.points.len() - 1]
-                .iter()
-                .find(|p| shape.level(**p) >= 1.0 || p[2] <= 0.0)
-            {
-                return Err(fail(
+            let clearance = mt_clearance(&mt).map_err(|p| {
+                fail(
                     "microtubules",
                     format!(
                         "MT {k} leaves the cell at {p:.2?} µm; lower microtubules.bow_max or \
                          move the centrosome"
                     ),
-                ));
-            }
-            let scaled: Vec<V3> = mt
-                .points
-                .iter()
-                .map(|&p| params.to_unit_nucleus(p))
-                .collect();
-            let clearance =
-                crate::cell::suspended::cytoskeleton::polyline_distance_to_origin(&scaled) - 1.0;
-            let min_axis = shape
-                .nucleus_semi_axes
-                .iter()
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
-            if !(clearance * min_axis >= params.mt_clearance_margin) {
+                )
+            })?;
+            if !(clearance >= params.mt_clearance_margin) {
                 return Err(fail(
                     "microtubules",
                     format!(
-                        "MT {k} passes within {:.3} µm of the nucleus (at least {} µm wanted); \
-                         raise microtubules.centrosome_gap or lower the bow",
-                        clearance * min_axis,
+                        "MT {k} passes within {clearance:.3} µm of the nucleus (at least {} µm \
+                         wanted); raise microtubules.centrosome_gap or lower the bow",
                         params.mt_clearance_margin
                     ),
                 ));
             }
-            min_clearance = min_clearance.min(clearance);
+            min_clearance = min_clearance.min(clearance / min_axis);
             microtubules.push(MicrotubulePath {
                 fa_node: end(fa),
                 ..mt
             });
         }
+        // The density variant's extra MTs: the same routing from the centrosome to new dome
+        // nodes, in an order shuffled by their own stream (bows drawn from it too); a node
+        // whose MT would leave the cell or pass too close to the nucleus is skipped.
+        let extra_bundle_nodes: Vec<usize> = extra_bundle_ends.clone();
+        let mut extra_microtubules: Vec<MicrotubulePath> = Vec::new();
+        if params.extra_microtubules > 0 {
+            use crate::cell::suspended::density::shuffle;
+            let mut order =
+                free_dome_nodes(params, &mesh, base_nodes, &fa_nodes, &extra_bundle_nodes);
+            let mut rng =
+                cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ EXTRA_MT_STREAM);
+            shuffle(&mut order, &mut rng);
+            for node in order {
+                if extra_microtubules.len() == params.extra_microtubules {
+                    break;
+                }
+                let bow = rng.uniform(params.mt_bow_min, params.mt_bow_max.max(params.mt_bow_min));
+                let side = if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 };
+                let mt = route_microtubule(
+                    centrosome,
+                    node,
+                    mesh.nodes[node],
+                    side * bow,
+                    params.mt_elements,
+                );
+                if mt_clearance(&mt).is_ok_and(|c| c >= params.mt_clearance_margin) {
+                    extra_microtubules.push(mt);
+                }
+            }
+            if extra_microtubules.len() < params.extra_microtubules {
+                return Err(fail(
+                    "microtubules.extra",
+                    format!(
+                        "expected cell.microtubules.extra at most {} on this mesh (MTs from the \
+                         centrosome to distinct dome nodes away from the FAs, inside the cell \
+                         and clear of the nucleus); found {} (lower it or refine the mesh)",
+                        extra_microtubules.len(),
+                        params.extra_microtubules
+                    ),
+                ));
+            }
+        }
+        let taken: Vec<usize> = extra_bundle_nodes
+            .iter()
+            .copied()
+            .chain(extra_microtubules.iter().map(|mt| mt.fa_node))
+            .collect();
+        let extra_intermediate = choose_extra_intermediate(
+            params,
+            &mesh,
+            &free_dome_nodes(params, &mesh, base_nodes, &fa_nodes, &taken),
+        )?;
         // IFs in the unit-nucleus frame.
         let inner = mesh.node_sets["nucleus_surface"].clone();
         let scaled = Mesh {
@@ -796,7 +939,9 @@ impl AdherentCellGeometry {
             extra_bundles,
             centrosome,
             microtubules,
+            extra_microtubules,
             intermediate_filaments: ifs.filaments.iter().map(|&[a, b]| [end(a), b]).collect(),
+            extra_intermediate,
             receptor,
             report,
         })
@@ -804,7 +949,8 @@ impl AdherentCellGeometry {
 
     /// Appends the centrosome and the MTs' interior points as nodes (node sets
     /// `centrosome`, `microtubule_interior`, `microtubule_anchors`) and returns each MT's
-    /// chain: centrosome, interior nodes, FA node.
+    /// chain: centrosome, interior nodes, FA node; the FA MTs first, then the density
+    /// variant's extra MTs (ending on their dome nodes).
     pub fn append_microtubule_nodes(&self, mesh: &mut Mesh) -> Vec<Vec<usize>> {
         let centrosome = mesh.nodes.len();
         mesh.nodes.push(self.centrosome);
@@ -812,6 +958,7 @@ impl AdherentCellGeometry {
         let chains: Vec<Vec<usize>> = self
             .microtubules
             .iter()
+            .chain(&self.extra_microtubules)
             .map(|mt| {
                 let mut chain = vec![centrosome];
                 for &p in &mt.points[1..mt.points.len() - 1] {

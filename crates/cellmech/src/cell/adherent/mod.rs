@@ -187,11 +187,12 @@ impl AdherentCell {
             ),
             enabled: on.bundles,
         });
+        let fa_mts = geometry.microtubules.len();
         structures
             .filaments
             .push(crate::cell::suspended::microtubule_filaments(
                 &m.microtubule,
-                &chains,
+                &chains[..fa_mts],
                 on.microtubules,
             )?);
         structures
@@ -218,6 +219,26 @@ impl AdherentCell {
                 ),
                 enabled: on.bundles,
             });
+        }
+        // The density variant's extra MTs and IFs: groups of their own after the published
+        // ones (whose filament ids do not change), in the same families, same materials.
+        if chains.len() > fa_mts {
+            let mut group = crate::cell::suspended::microtubule_filaments(
+                &m.microtubule,
+                &chains[fa_mts..],
+                on.microtubules,
+            )?;
+            group.name = crate::cell::suspended::EXTRA_MICROTUBULE.into();
+            structures.filaments.push(group);
+        }
+        if !geometry.extra_intermediate.is_empty() {
+            let mut group = crate::cell::suspended::intermediate_filaments(
+                &m.intermediate,
+                &geometry.extra_intermediate,
+                on.intermediate,
+            )?;
+            group.name = crate::cell::suspended::EXTRA_INTERMEDIATE.into();
+            structures.filaments.push(group);
         }
         let report = &geometry.report;
         let p = &self.params;
@@ -246,9 +267,15 @@ impl AdherentCell {
             materials: serde_json::to_value(self.materials).unwrap_or_default(),
             geometry: serde_json::to_value(report).unwrap_or_default(),
         };
-        if p.extra_bundles > 0 {
-            // Recorded only for a density variant (drawn from `seed`, recorded above).
-            description.params["extra_bundles"] = serde_json::json!(p.extra_bundles);
+        // Recorded only for a density variant (drawn from `seed`, recorded above).
+        for (key, count) in [
+            ("extra_bundles", p.extra_bundles),
+            ("extra_microtubules", p.extra_microtubules),
+            ("extra_intermediate", p.extra_intermediate),
+        ] {
+            if count > 0 {
+                description.params[key] = serde_json::json!(count);
+            }
         }
         let prestress = crate::model::StepSpec {
             name: "prestress".into(),
