@@ -422,7 +422,6 @@ fn choose_extra_intermediate(
     mesh: &Mesh,
     ends: &[usize],
 ) -> Result<Vec<[usize; 2]>, AdherentLayoutError> {
-    use crate::cell::suspended::density::{shuffle, take_pairs};
     if params.extra_intermediate == 0 {
         return Ok(Vec::new());
     }
@@ -441,18 +440,40 @@ fn choose_extra_intermediate(
             }
         }
     }
-    let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ EXTRA_IF_STREAM);
-    shuffle(&mut pairs, &mut rng);
-    let chosen = take_pairs(&pairs, params.extra_intermediate, false);
-    if chosen.len() < params.extra_intermediate {
+    take_seeded_pairs(
+        params.seed ^ EXTRA_IF_STREAM,
+        pairs,
+        (params.extra_intermediate, false),
+        "intermediate.extra",
+        "IFs from distinct dome nodes away from the FAs to distinct nucleus-surface nodes \
+         they see",
+    )
+}
+
+/// Shuffles candidate `pairs` by a SplitMix64 stream of `seed` and takes `wanted` of them
+/// greedily (`shared`: a node is used once at either end; else each end has its own pool,
+/// `cell::suspended::density::take_pairs`). Fewer candidates than wanted is an error naming
+/// `key` and saying what a candidate is.
+fn take_seeded_pairs(
+    seed: u64,
+    mut pairs: Vec<[usize; 2]>,
+    (wanted, shared): (usize, bool),
+    key: &'static str,
+    what: &str,
+) -> Result<Vec<[usize; 2]>, AdherentLayoutError> {
+    use crate::cell::suspended::density::{shuffle, take_pairs};
+    shuffle(
+        &mut pairs,
+        &mut cellmech_fem::mesh::generate::SplitMix64::new(seed),
+    );
+    let chosen = take_pairs(&pairs, wanted, shared);
+    if chosen.len() < wanted {
         return Err(fail(
-            "intermediate.extra",
+            key,
             format!(
-                "expected cell.intermediate.extra at most {} on this mesh (IFs from distinct \
-                 dome nodes away from the FAs to distinct nucleus-surface nodes they see); \
-                 found {} (lower it or refine the mesh)",
-                chosen.len(),
-                params.extra_intermediate
+                "expected cell.{key} at most {} on this mesh ({what}); found {wanted} (lower it \
+                 or refine the mesh)",
+                chosen.len()
             ),
         ));
     }
@@ -477,7 +498,6 @@ fn choose_extra_bundles(
     fa_nodes: &[usize],
     lengths: &[f64],
 ) -> Result<Vec<[usize; 2]>, AdherentLayoutError> {
-    use crate::cell::suspended::density::{shuffle, take_pairs};
     if params.extra_bundles == 0 {
         return Ok(Vec::new());
     }
@@ -495,22 +515,16 @@ fn choose_extra_bundles(
             }
         }
     }
-    let mut rng = cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ EXTRA_BUNDLE_STREAM);
-    shuffle(&mut pairs, &mut rng);
-    let chosen = take_pairs(&pairs, params.extra_bundles, true);
-    if chosen.len() < params.extra_bundles {
-        return Err(fail(
-            "bundles.extra",
-            format!(
-                "expected cell.bundles.extra at most {} on this mesh (actin bundles between \
-                 distinct dome nodes away from the FAs, at least {min_length:.2} µm long and \
-                 clear of the nucleus); found {} (lower it or refine the mesh)",
-                chosen.len(),
-                params.extra_bundles
-            ),
-        ));
-    }
-    Ok(chosen)
+    take_seeded_pairs(
+        params.seed ^ EXTRA_BUNDLE_STREAM,
+        pairs,
+        (params.extra_bundles, true),
+        "bundles.extra",
+        &format!(
+            "actin bundles between distinct dome nodes away from the FAs, at least \
+             {min_length:.2} µm long and clear of the nucleus"
+        ),
+    )
 }
 
 /// Mixed into the seed for the MT bows.
