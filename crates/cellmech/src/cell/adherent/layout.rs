@@ -253,7 +253,7 @@ pub struct AdherentCellGeometry {
     /// One MT per FA.
     pub microtubules: Vec<MicrotubulePath>,
     /// The density variant's extra MTs, from the centrosome to new dome nodes (none by
-    /// default; see `choose_extra_microtubules`).
+    /// default; routed like the FA MTs in [`Self::build`]).
     pub extra_microtubules: Vec<MicrotubulePath>,
     /// IFs as `[FA node, nucleus-surface node]`.
     pub intermediate_filaments: Vec<[usize; 2]>,
@@ -851,12 +851,11 @@ impl AdherentCellGeometry {
         // The density variant's extra MTs: the same routing from the centrosome to new dome
         // nodes, in an order shuffled by their own stream (bows drawn from it too); a node
         // whose MT would leave the cell or pass too close to the nucleus is skipped.
-        let extra_bundle_nodes: Vec<usize> = extra_bundle_ends.clone();
         let mut extra_microtubules: Vec<MicrotubulePath> = Vec::new();
         if params.extra_microtubules > 0 {
             use crate::cell::suspended::density::shuffle;
             let mut order =
-                free_dome_nodes(params, &mesh, base_nodes, &fa_nodes, &extra_bundle_nodes);
+                free_dome_nodes(params, &mesh, base_nodes, &fa_nodes, &extra_bundle_ends);
             let mut rng =
                 cellmech_fem::mesh::generate::SplitMix64::new(params.seed ^ EXTRA_MT_STREAM);
             shuffle(&mut order, &mut rng);
@@ -890,7 +889,7 @@ impl AdherentCellGeometry {
                 ));
             }
         }
-        let taken: Vec<usize> = extra_bundle_nodes
+        let taken: Vec<usize> = extra_bundle_ends
             .iter()
             .copied()
             .chain(extra_microtubules.iter().map(|mt| mt.fa_node))
