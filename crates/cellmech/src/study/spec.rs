@@ -662,12 +662,11 @@ fn axis(a: &AxisSection, base: &toml::Table) -> Result<Axis, String> {
 }
 
 /// The key of each family a density axis adds filaments to, in the suspended cell
-/// (`[cell.density]`; `bundles`: the adherent cell's, not in the default list).
-const DENSITY_KEYS: [(&str, &str); 4] = [
+/// (`[cell.density]`).
+const DENSITY_KEYS: [(&str, &str); 3] = [
     ("actin", "cell.density.extra_actin"),
     ("microtubule", "cell.density.extra_microtubules"),
     ("intermediate", "cell.density.extra_intermediate"),
-    ("bundles", "cell.bundles.extra"),
 ];
 
 /// The same in the adherent cell: its ABs, MTs and IFs each have an `extra` count.
