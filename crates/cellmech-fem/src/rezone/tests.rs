@@ -57,6 +57,22 @@ fn assert_motion_is(motion: &MeshMotion, expected: &[[f64; 3]], what: &str) {
     }
 }
 
+/// A top surface (z = 1) dented round the z axis and swept outwards, as the flow round an
+/// indenter's nose leaves it: x, y spread by 1 + `spread`·e^(−r²/0.1)·zᵖ, z lowered by
+/// `dip`·e^(−r²/`dip_width`)·zᵖ (p = `power`: the deformation fades with depth).
+fn dent(spread: f64, dip: f64, dip_width: f64, power: i32) -> impl Fn([f64; 3]) -> [f64; 3] {
+    move |x| {
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let depth = x[2].powi(power);
+        let s = 1.0 + spread * (-r2 / 0.1).exp() * depth;
+        [
+            x[0] * s,
+            x[1] * s,
+            x[2] - dip * (-r2 / dip_width).exp() * depth,
+        ]
+    }
+}
+
 fn apply(f: &[[f64; 3]; 3], x: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|i| (0..3).map(|j| f[i][j] * x[j]).sum())
 }
@@ -304,16 +320,7 @@ fn surface_nodes_slide_along_the_surface_and_stay_on_it() {
     let (size, divisions) = ([2.0, 2.0, 1.0], [10, 10, 5]);
     let mesh = box_mesh([-1.0, -1.0, 0.0], size, divisions, "gel").unwrap();
     let reference = mesh.nodes.clone();
-    let sweep = |x: [f64; 3]| -> [f64; 3] {
-        let r2 = x[0] * x[0] + x[1] * x[1];
-        let depth = x[2].powi(6);
-        let spread = 1.0 + 1.2 * (-r2 / 0.1).exp() * depth;
-        [
-            x[0] * spread,
-            x[1] * spread,
-            x[2] - 0.15 * (-r2 / 0.3).exp() * depth,
-        ]
-    };
+    let sweep = dent(1.2, 0.15, 0.3, 6);
     let current: Vec<[f64; 3]> = reference.iter().map(|&x| sweep(x)).collect();
     let elements = hexes(&mesh);
     let on_boundary = boundary(&mesh);
@@ -457,16 +464,7 @@ fn the_mesh_motion_is_exact_through_hanging_nodes() {
     assert!(motion.surface.len() > 20 && motion.interior.len() > 50);
     assert_motion_is(&motion, &stretched, "uniform stretch");
     // The crushed and swept top.
-    let flow = |x: [f64; 3]| -> [f64; 3] {
-        let r2 = x[0] * x[0] + x[1] * x[1];
-        let depth = x[2].powi(8);
-        let spread = 1.0 + 0.8 * (-r2 / 0.1).exp() * depth;
-        [
-            x[0] * spread,
-            x[1] * spread,
-            x[2] - 0.2 * (-r2 / 0.2).exp() * depth,
-        ]
-    };
+    let flow = dent(0.8, 0.2, 0.2, 8);
     // As a solver leaves it: hanging nodes on their masters.
     let mut current: Vec<[f64; 3]> = reference.iter().map(|&x| flow(x)).collect();
     for (h, masters) in &hanging {
