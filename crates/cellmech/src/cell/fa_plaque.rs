@@ -122,8 +122,13 @@ pub(crate) fn tie_fa_plaques(
                 .collect()
         }
     };
-    // A separate reference node per FA: appended at the FA node's position and tied to the
-    // plaque (FA node included); the FA node stays a free node, so no tie is rewritten.
+    // A separate reference node per FA, tied to the plaque (FA node included); the FA node
+    // stays a free node, so no tie is rewritten. The node is placed at the weighted centroid
+    // of its masters, Σ wᵢ Xᵢ: only there does the tie x_ref = Σ wᵢ xᵢ follow every rigid
+    // motion (it is then exact for any affine one). Anywhere else a rotation by Q moves it
+    // by (Q − I)(Σ wᵢ Xᵢ − X_ref) off the rigid motion, so the filaments' pull gains a
+    // spurious moment (on the default suspended mesh the centroid lies 0.13–0.25 µm from
+    // the FA node, mostly inwards: the plaque is a spherical cap).
     let mut references = BTreeMap::new();
     let stands_for: BTreeMap<usize, Vec<(usize, f64)>> =
         if reference == FaReference::Separate && coupling != FaCoupling::Rigid {
@@ -131,7 +136,13 @@ pub(crate) fn tie_fa_plaques(
                 .into_iter()
                 .map(|(f, masters)| {
                     let r = mesh.nodes.len();
-                    mesh.nodes.push(mesh.nodes[f]);
+                    let mut centroid = [0.0; 3];
+                    for &(n, w) in &masters {
+                        for (c, x) in centroid.iter_mut().zip(mesh.nodes[n]) {
+                            *c += w * x;
+                        }
+                    }
+                    mesh.nodes.push(centroid);
                     references.insert(f, r);
                     (r, masters)
                 })
@@ -183,9 +194,12 @@ pub enum FaReference {
     /// On the FA mesh node, which the coupling ties to its plaque's weighted mean (while it
     /// stays a corner of the elements around it).
     FaNode,
-    /// On a separate reference node at the FA's position, tied to the plaque nodes and the
-    /// FA node itself, which stays a free node of the surface (as a commercial code's
-    /// distributing coupling has its own reference node).
+    /// On a separate reference node at the plaque's weighted centroid (the FA node itself
+    /// included), tied to the plaque nodes and the FA node, which stays a free node of the
+    /// surface (as a commercial code's distributing coupling has its own reference node).
+    /// At the centroid the tie follows rigid rotations exactly; the FA node is off it (the
+    /// plaque is curved, and on an irregular mesh lopsided), so with [`Self::FaNode`] a
+    /// rotation strains the tie.
     Separate,
 }
 
@@ -211,4 +225,90 @@ fn nodal_areas(mesh: &Mesh, faces: &[[usize; 4]]) -> std::collections::BTreeMap<
         }
     }
     area
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Is a plaque's tie objective? A curved, lopsided plaque (an FA on the edge of a
+    /// bent 4 × 4 × 1 box's top face, its plaque all on one side), every node moved by a
+    /// 40° rigid rotation: the reference node's tie, x_ref = Σ wᵢ xᵢ, must put it where
+    /// the rotation puts it. With a separate reference node at the plaque's weighted
+    /// centroid it does, to rounding; with the FA node as the reference (off the centroid)
+    /// it misses by |(Q − I)(Σ wᵢ Xᵢ − X_FA)|, which is what this test measures.
+    #[test]
+    fn a_separate_reference_node_follows_rigid_rotations_and_the_fa_node_does_not() {
+        let mut mesh = cellmech_fem::mesh::generate::box_mesh(
+            [-1.0, -1.0, 0.0],
+            [2.0, 2.0, 1.0],
+            [4, 4, 1],
+            "b",
+        )
+        .unwrap();
+        let top = mesh.node_sets["z_max"].clone();
+        for &n in &top {
+            let [x, y, _] = mesh.nodes[n];
+            mesh.nodes[n][2] -= 0.2 * (x * x + y * y);
+        }
+        let fa = top
+            .iter()
+            .copied()
+            .find(|&n| {
+                (mesh.nodes[n][0] - 1.0).abs() < 1e-12 && (mesh.nodes[n][1] - 0.5).abs() < 1e-12
+            })
+            .unwrap();
+        // Rotation by 40° about (1, 2, 3)/√14 (Rodrigues).
+        let (k, t) = {
+            let n = 14f64.sqrt();
+            ([1.0 / n, 2.0 / n, 3.0 / n], 40f64.to_radians())
+        };
+        let rotate = |x: [f64; 3]| -> [f64; 3] {
+            let kx = [
+                k[1] * x[2] - k[2] * x[1],
+                k[2] * x[0] - k[0] * x[2],
+                k[0] * x[1] - k[1] * x[0],
+            ];
+            let kd = k[0] * x[0] + k[1] * x[1] + k[2] * x[2];
+            std::array::from_fn(|i| x[i] * t.cos() + kx[i] * t.sin() + k[i] * kd * (1.0 - t.cos()))
+        };
+        let miss = |mesh: &Mesh, tie: &cellmech_fem::mesh::refine::HangingNode| -> f64 {
+            let mut x = [0.0; 3];
+            for &(m, w) in &tie.masters {
+                let xm = rotate(mesh.nodes[m]);
+                for i in 0..3 {
+                    x[i] += w * xm[i];
+                }
+            }
+            crate::cell::vec3::distance(x, rotate(mesh.nodes[tie.node]))
+        };
+        for reference in [FaReference::FaNode, FaReference::Separate] {
+            let mut m = mesh.clone();
+            let plaques = tie_fa_plaques(
+                &mut m,
+                Vec::new(),
+                &top,
+                |_| false,
+                &[fa],
+                0.8,
+                FaCoupling::Distributing,
+                &[],
+                reference,
+            );
+            // The FA at x = 1 has plaque nodes at x = 0.5 and x = 1 only: lopsided.
+            assert_eq!(plaques.plaque_nodes, 5);
+            let owner = plaques.references.get(&fa).copied().unwrap_or(fa);
+            let tie = plaques.ties.iter().find(|h| h.node == owner).unwrap();
+            let sum: f64 = tie.masters.iter().map(|p| p.1).sum();
+            assert!((sum - 1.0).abs() < 1e-14);
+            let e = miss(&m, tie);
+            match reference {
+                FaReference::Separate => assert!(e < 1e-14, "separate reference misses by {e}"),
+                // The plaque's centroid (0.7, 0.5, 0.8) lies 0.30 from the FA node
+                // (1, 0.5, 0.75), inboard; a 40° rotation puts the tie's FA node
+                // 2 sin 20° × 0.30 (its part across the axis) = 0.21 off.
+                FaReference::FaNode => assert!(e > 0.1, "the FA node's tie misses by {e} only"),
+            }
+        }
+    }
 }

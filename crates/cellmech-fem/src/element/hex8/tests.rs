@@ -451,3 +451,41 @@ fn corner_jacobians_see_a_fold_the_gauss_points_miss() {
     let ratio = hex8_min_corner_jacobian_ratio(&x0, &homogeneous_u(&x0, rot.matrix()));
     assert!((ratio - 1.0).abs() < 1e-12);
 }
+
+/// The element's nodal forces are self-equilibrated in any state: they sum to zero and
+/// their moment about the origin, Σ xₐ × fₐ with xₐ the current positions, vanishes (the
+/// energy depends on the deformation through b = F Fᵀ and J only, so it is unchanged by a
+/// rigid rotation). An element that breaks this loads a free body's supports.
+#[test]
+fn nodal_forces_have_no_resultant_and_no_moment() {
+    let x0 = distorted();
+    let r = Hex8Reference::new(&x0).expect("valid reference");
+    for form in FORMS {
+        for seed in [3, 17, 99] {
+            let u = random_large_u(seed);
+            let mut res = [0.0; 24];
+            eval(&r, &material(50.0), form, &u, &mut res, None);
+            let scale = res.iter().map(|v| v.abs()).fold(0.0, f64::max);
+            let mut force = Vector3::zeros();
+            let mut moment = Vector3::zeros();
+            for a in 0..8 {
+                let x = Vector3::new(
+                    x0[a][0] + u[3 * a],
+                    x0[a][1] + u[3 * a + 1],
+                    x0[a][2] + u[3 * a + 2],
+                );
+                let f = Vector3::new(res[3 * a], res[3 * a + 1], res[3 * a + 2]);
+                force += f;
+                moment += x.cross(&f);
+            }
+            assert!(
+                force.norm() < 1e-12 * scale,
+                "{form:?}: resultant {force:?}"
+            );
+            assert!(
+                moment.norm() < 1e-12 * scale,
+                "{form:?} seed {seed}: moment {moment:?} (force scale {scale})"
+            );
+        }
+    }
+}

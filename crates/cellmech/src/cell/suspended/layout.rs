@@ -131,6 +131,9 @@ pub struct SuspendedCellParams {
     pub fa_radius: f64,
     /// How a plaque carries its FA's filaments (rigid or distributing).
     pub fa_coupling: crate::cell::fa_plaque::FaCoupling,
+    /// Where a distributing plaque's filaments end: the FA node, or a separate node at the
+    /// plaque's weighted centroid ([`crate::cell::fa_plaque::FaReference`]).
+    pub fa_reference: crate::cell::fa_plaque::FaReference,
     /// Truss elements per AF: 1, one straight truss between its FAs; more, the AF split
     /// along its chord with the interior nodes embedded in the cytoplasm
     /// (`actin.coupling = "embedded"`).
@@ -608,9 +611,24 @@ impl SuspendedCellGeometry {
             params.fa_radius,
             params.fa_coupling,
             &surface_faces,
-            crate::cell::fa_plaque::FaReference::FaNode,
+            params.fa_reference,
         );
         let (ties, fa_plaque_nodes) = (plaques.ties, plaques.plaque_nodes);
+        // Where the filaments of each FA end: the FA node, or its coupling's reference node
+        // (the mesh node itself stays in the FA node sets).
+        let end = |fa: usize| plaques.references.get(&fa).copied().unwrap_or(fa);
+        let af_edges: Vec<[usize; 2]> = af_edges.iter().map(|&[a, b]| [end(a), end(b)]).collect();
+        let mut microtubules = microtubules;
+        for mt in &mut microtubules {
+            mt.fa_node = end(mt.fa_node);
+            if let Some(last) = mt.points.last_mut() {
+                *last = mesh.nodes[mt.fa_node];
+            }
+        }
+        let mut ifs = ifs;
+        for f in &mut ifs.filaments {
+            f[0] = end(f[0]);
+        }
         mesh.insert_node_set("focal_adhesions", fa_nodes.clone());
         for (k, &n) in fa_nodes.iter().enumerate() {
             mesh.insert_node_set(format!("fa_{k}"), vec![n]);

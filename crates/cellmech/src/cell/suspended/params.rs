@@ -377,6 +377,14 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             CHOICE,
         ),
         p(
+            "fa_reference",
+            K::Choice(&["fa-node", "separate"]),
+            D::Word("fa-node"),
+            ANY,
+            "with a distributing `fa_coupling`: where the FA's filaments end and the coupling's reference point is: the FA mesh node (tied to the plaque's weighted mean, though it is not at the plaque's weighted centroid, so a rotation strains the tie), or a separate node at the plaque's weighted centroid, tied to the plaque nodes and the FA node, which stays a free surface node (the tie then follows every rigid motion exactly)",
+            "choice ([validation](suspended-cell-validation.md#fa-plaques-re-run-and-an-objective-coupling-2026-12-07-stop-49): with the FA node as reference the pentagon-on-axis prestress loads the supports with 1.49 nN and folds the nucleus's centre)",
+        ),
+        p(
             "orientation_trials",
             K::Count,
             D::Count(2000),
@@ -616,6 +624,10 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             "distributing" => crate::cell::fa_plaque::FaCoupling::Distributing,
             "distributing-linear" => crate::cell::fa_plaque::FaCoupling::DistributingLinear,
             _ => crate::cell::fa_plaque::FaCoupling::Rigid,
+        },
+        fa_reference: match v.word("fa_reference") {
+            "separate" => crate::cell::fa_plaque::FaReference::Separate,
+            _ => crate::cell::fa_plaque::FaReference::FaNode,
         },
     };
     let materials = SuspendedCellMaterials {
