@@ -227,6 +227,14 @@ fn nodal_areas(mesh: &Mesh, faces: &[[usize; 4]]) -> std::collections::BTreeMap<
     area
 }
 
+/// The 2 × 2 × 1 box of 4 × 4 × 1 hex8 (x, y in [−1, 1], z in [0, 1]) whose top face
+/// (`z_max`) the plaque tests use as the surface.
+#[cfg(test)]
+pub(crate) fn plaque_test_box() -> Mesh {
+    cellmech_fem::mesh::generate::box_mesh([-1.0, -1.0, 0.0], [2.0, 2.0, 1.0], [4, 4, 1], "b")
+        .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -239,13 +247,7 @@ mod tests {
     /// it misses by |(Q − I)(Σ wᵢ Xᵢ − X_FA)|, which is what this test measures.
     #[test]
     fn a_separate_reference_node_follows_rigid_rotations_and_the_fa_node_does_not() {
-        let mut mesh = cellmech_fem::mesh::generate::box_mesh(
-            [-1.0, -1.0, 0.0],
-            [2.0, 2.0, 1.0],
-            [4, 4, 1],
-            "b",
-        )
-        .unwrap();
+        let mut mesh = plaque_test_box();
         let top = mesh.node_sets["z_max"].clone();
         for &n in &top {
             let [x, y, _] = mesh.nodes[n];

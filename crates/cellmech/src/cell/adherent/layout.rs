@@ -1049,13 +1049,7 @@ mod tests {
     #[test]
     fn the_fa_plaque_is_rigid_or_distributing() {
         use cellmech_fem::mesh::refine::HangingNode;
-        let mut mesh = cellmech_fem::mesh::generate::box_mesh(
-            [-1.0, -1.0, 0.0],
-            [2.0, 2.0, 1.0],
-            [4, 4, 1],
-            "b",
-        )
-        .unwrap();
+        let mut mesh = crate::cell::fa_plaque::plaque_test_box();
         mesh.node_sets
             .insert("dome".into(), mesh.node_sets["z_max"].clone());
         let fa = mesh.node_sets["dome"]
