@@ -39,7 +39,8 @@ const MT_STREAM: u64 = 0x4D54_5F42_4F57_5321;
 /// One microtubule: a polyline from the centrosome to its FA, split into beam elements.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MicrotubulePath {
-    /// Mesh index of the FA node the MT ends on.
+    /// Mesh index of the node the MT ends on: its FA node, or with `fa_reference =
+    /// "separate"` the FA plaque's reference node.
     pub fa_node: usize,
     /// Points from the centrosome (first) to the FA (last), inclusive; consecutive points
     /// are the ends of one beam element.

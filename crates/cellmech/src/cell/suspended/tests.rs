@@ -771,3 +771,76 @@ fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
         assert_eq!(g.ties.len(), expected_ties, "{coupling:?}");
     }
 }
+
+/// `fa_reference = "separate"`: each FA gets one node of its own, appended after the mesh's
+/// nodes at its plaque's weighted centroid (the tie's masters: the plaque and the FA node),
+/// and every AF, MT and IF of that FA ends on it; the FA mesh node stays free and in the
+/// FA node sets. The centroid lies inside the sphere (the plaque is a cap), within a
+/// fraction of the plaque radius of the FA node.
+#[test]
+fn a_separate_fa_reference_node_carries_the_filaments_from_the_plaques_centroid() {
+    use crate::cell::fa_plaque::{FaCoupling, FaReference};
+    let radius = 3.5;
+    let plain = SuspendedCellGeometry::build(&SuspendedCellParams {
+        fa_radius: radius,
+        fa_coupling: FaCoupling::DistributingLinear,
+        ..Default::default()
+    })
+    .unwrap();
+    let g = SuspendedCellGeometry::build(&SuspendedCellParams {
+        fa_radius: radius,
+        fa_coupling: FaCoupling::DistributingLinear,
+        fa_reference: FaReference::Separate,
+        ..Default::default()
+    })
+    .unwrap();
+    assert_eq!(g.fa_nodes, plain.fa_nodes);
+    let mut sorted = plain.fa_nodes.clone();
+    sorted.sort_unstable();
+    assert_eq!(g.mesh.node_sets["focal_adhesions"], sorted);
+    let base = plain.mesh.nodes.len();
+    assert_eq!(g.mesh.nodes.len(), base + 30);
+    // FA node -> its reference node, read off the ties.
+    let mut reference = BTreeMap::new();
+    for t in &g.ties {
+        if t.node >= base {
+            let fa = t
+                .masters
+                .iter()
+                .map(|&(m, _)| m)
+                .find(|m| g.fa_nodes.contains(m))
+                .expect("the FA node is a master of its reference node");
+            assert!(
+                !g.ties.iter().any(|h| h.node == fa),
+                "the FA node stays free"
+            );
+            let mut centroid = [0.0; 3];
+            for &(m, w) in &t.masters {
+                for i in 0..3 {
+                    centroid[i] += w * g.mesh.nodes[m][i];
+                }
+            }
+            assert!(distance(centroid, g.mesh.nodes[t.node]) < 1e-12);
+            let inward = norm(g.mesh.nodes[fa]) - norm(g.mesh.nodes[t.node]);
+            assert!(
+                inward > 0.0 && distance(g.mesh.nodes[fa], g.mesh.nodes[t.node]) < 0.2 * radius
+            );
+            reference.insert(fa, t.node);
+        }
+    }
+    assert_eq!(reference.len(), 30);
+    for (k, (&[a, b], &[pa, pb])) in g.af_edges.iter().zip(&plain.af_edges).enumerate() {
+        assert_eq!([a, b], [reference[&pa], reference[&pb]], "AF {k}");
+    }
+    for (mt, p) in g.microtubules.iter().zip(&plain.microtubules) {
+        assert_eq!(mt.fa_node, reference[&p.fa_node]);
+        assert_eq!(*mt.points.last().unwrap(), g.mesh.nodes[mt.fa_node]);
+    }
+    for (f, p) in g
+        .intermediate_filaments
+        .iter()
+        .zip(&plain.intermediate_filaments)
+    {
+        assert_eq!(*f, [reference[&p[0]], p[1]]);
+    }
+}
