@@ -816,8 +816,8 @@ fn a_separate_fa_reference_node_carries_the_filaments_from_the_plaques_centroid(
             );
             let mut centroid = [0.0; 3];
             for &(m, w) in &t.masters {
-                for i in 0..3 {
-                    centroid[i] += w * g.mesh.nodes[m][i];
+                for (c, x) in centroid.iter_mut().zip(g.mesh.nodes[m]) {
+                    *c += w * x;
                 }
             }
             assert!(distance(centroid, g.mesh.nodes[t.node]) < 1e-12);
