@@ -215,6 +215,14 @@ pub(crate) struct FaPlaques {
     pub references: std::collections::BTreeMap<usize, usize>,
 }
 
+impl FaPlaques {
+    /// The node the filaments of the FA at mesh node `fa` end on: its separate reference
+    /// node, or the FA node itself.
+    pub fn filament_end(&self, fa: usize) -> usize {
+        self.references.get(&fa).copied().unwrap_or(fa)
+    }
+}
+
 /// The surface area each node of `faces` stands for: a quarter of each quad around it (µm²).
 fn nodal_areas(mesh: &Mesh, faces: &[[usize; 4]]) -> std::collections::BTreeMap<usize, f64> {
     let mut area = std::collections::BTreeMap::new();
@@ -299,7 +307,7 @@ mod tests {
             );
             // The FA at x = 1 has plaque nodes at x = 0.5 and x = 1 only: lopsided.
             assert_eq!(plaques.plaque_nodes, 5);
-            let owner = plaques.references.get(&fa).copied().unwrap_or(fa);
+            let owner = plaques.filament_end(fa);
             let tie = plaques.ties.iter().find(|h| h.node == owner).unwrap();
             let sum: f64 = tie.masters.iter().map(|p| p.1).sum();
             assert!((sum - 1.0).abs() < 1e-14);

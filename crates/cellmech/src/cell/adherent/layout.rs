@@ -759,7 +759,7 @@ impl AdherentCellGeometry {
         let refinement_hanging = hanging.len();
         let dome = mesh.node_sets["dome"].clone();
         let on_base: Vec<bool> = mesh.nodes.iter().map(|x| x[2] <= 1e-9).collect();
-        let plaques = tie_fa_plaques(
+        let mut plaques = tie_fa_plaques(
             &mut mesh,
             hanging,
             &dome,
@@ -770,9 +770,9 @@ impl AdherentCellGeometry {
             &boundary_faces,
             params.fa_reference,
         );
-        let (hanging, plaque_nodes) = (plaques.ties, plaques.plaque_nodes);
+        let (hanging, plaque_nodes) = (std::mem::take(&mut plaques.ties), plaques.plaque_nodes);
         // Where the filaments of each FA end: the FA node, or its coupling's reference node.
-        let end = |fa: usize| plaques.references.get(&fa).copied().unwrap_or(fa);
+        let end = |fa: usize| plaques.filament_end(fa);
         let bundles: Vec<[usize; 2]> = bundles.iter().map(|&[a, b]| [end(a), end(b)]).collect();
         let extra_bundles: Vec<[usize; 2]> = extra_bundles
             .iter()

@@ -602,7 +602,7 @@ impl SuspendedCellGeometry {
             _ => Vec::new(),
         };
         let surface = mesh.node_sets["surface"].clone();
-        let plaques = crate::cell::fa_plaque::tie_fa_plaques(
+        let mut plaques = crate::cell::fa_plaque::tie_fa_plaques(
             &mut mesh,
             hanging.clone(),
             &surface,
@@ -613,10 +613,10 @@ impl SuspendedCellGeometry {
             &surface_faces,
             params.fa_reference,
         );
-        let (ties, fa_plaque_nodes) = (plaques.ties, plaques.plaque_nodes);
+        let (ties, fa_plaque_nodes) = (std::mem::take(&mut plaques.ties), plaques.plaque_nodes);
         // Where the filaments of each FA end: the FA node, or its coupling's reference node
         // (the mesh node itself stays in the FA node sets).
-        let end = |fa: usize| plaques.references.get(&fa).copied().unwrap_or(fa);
+        let end = |fa: usize| plaques.filament_end(fa);
         let af_edges: Vec<[usize; 2]> = af_edges.iter().map(|&[a, b]| [end(a), end(b)]).collect();
         let mut microtubules = microtubules;
         for mt in &mut microtubules {
