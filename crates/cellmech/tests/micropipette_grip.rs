@@ -325,3 +325,52 @@ fn fas_on_the_coarse_grip_ring_are_a_clear_error() {
     assert!(e.contains("grip.toml") && e.contains("grip_radius"), "{e}");
     assert!(e.contains("no ring of surface nodes"), "{e}");
 }
+
+/// Moving the surface ring onto the grip radius is not an affine map, so it must not move
+/// a tied node off its masters' weighted position Σ wᵢ Xᵢ: there alone a tie x = Σ wᵢ xᵢ
+/// follows rigid rotations. Before this was kept, the reference nodes of the FA plaques in
+/// the turned pattern (whose plaques reach the remapped band) landed off their centroids
+/// and the free prestressed cell's supports carried 0.548 nN (with single-node FAs
+/// 3.5e-7 nN). Default mesh (6912 hex8; on the fast one no plaque reaches the remapped
+/// band), prestress and a 0.05 µm stretch.
+#[test]
+fn the_grip_ring_keeps_tied_nodes_on_their_masters_and_the_prestress_self_equilibrated() {
+    let cell = "fa_orientation = \"pentagon-on-axis\"\nfa_radius = \"3.5 um\"\n\
+                fa_coupling = \"distributing-linear\"\nfa_reference = \"separate\"\n";
+    let s = scenario(cell, "grip = \"cap\"\nelongation = \"0.05 um\"", "").unwrap();
+    let contact = scenario(cell, "grip = \"contact\"", "").unwrap();
+    let mesh = &s.model.mesh;
+    let fas: BTreeSet<usize> = mesh.node_sets["focal_adhesions"].iter().copied().collect();
+    let mut moved_references = 0;
+    for tie in &s.model.hanging {
+        if fas.contains(&tie.node) {
+            continue;
+        }
+        let mut x = [0.0; 3];
+        for &(m, w) in &tie.masters {
+            for (c, v) in x.iter_mut().zip(mesh.nodes[m]) {
+                *c += w * v;
+            }
+        }
+        let p = mesh.nodes[tie.node];
+        let off = (0..3).map(|k| (p[k] - x[k]).abs()).fold(0.0, f64::max);
+        assert!(off < 1e-12 * R, "tied node {} is {off} um off", tie.node);
+        if p != contact.model.mesh.nodes[tie.node] {
+            moved_references += 1;
+        }
+    }
+    // The ring map moved some plaques' masters, so their reference nodes moved with them.
+    assert!(
+        moved_references > 0,
+        "no tied node was moved by the ring map"
+    );
+    let (summary, _) = run_case("plaques-turned", &s);
+    let reaction = summary
+        .protocol
+        .unwrap()
+        .prestress_support_reaction_max_nn
+        .unwrap();
+    let af_max = summary.final_values["actin_axial_force_max_nN"];
+    eprintln!("prestress support reaction {reaction:e} nN, AF force up to {af_max} nN");
+    assert!(reaction < 1e-6 * af_max, "{reaction} nN");
+}

@@ -162,8 +162,17 @@ impl MicropipetteTension {
         let poles = [-1.0, 1.0].map(|side| Pole { axis, side });
         let mut rings = Vec::new();
         for pole in poles {
-            let ring = grip::resolve_cap_ring(mesh, &surface, &keep, pole, r, inner, grip_radius)
-                .map_err(|e| ProtocolError {
+            let ring = grip::resolve_cap_ring(
+                mesh,
+                &surface,
+                &keep,
+                &cell.model.hanging,
+                pole,
+                r,
+                inner,
+                grip_radius,
+            )
+            .map_err(|e| ProtocolError {
                 key: "grip_radius",
                 message: format!("grip radius {grip_radius} um: {e}"),
             })?;
