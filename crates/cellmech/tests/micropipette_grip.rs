@@ -287,30 +287,40 @@ fn default_cell_with_no_fa_in_the_grips_stretches_to_100_percent_in_equilibrium(
     }
     let (summary, _) = run_case("pentagon-100", &s);
     for step in &summary.steps {
-        // Automatic cutbacks may occur (one, measured: a singular trial tangent near
-        // 30 µm); viscous forces may not.
+        // Automatic cutbacks may occur (four with the default FA plaques, measured
+        // 2026-12-07: three trial states with an inverted element and one singular trial
+        // tangent, all after the fold below); viscous forces may not.
         assert_eq!(step.stabilized_increments, 0, "{}: {step:?}", step.name);
-        assert!(step.cutbacks <= 2, "{}: {step:?}", step.name);
+        assert!(step.cutbacks <= 4, "{}: {step:?}", step.name);
     }
     let r = summary.protocol.unwrap();
+    // The elements under two FAs of this turned pattern, which sit where the cubed sphere
+    // is most skewed, fold from 12.8 µm (first increment with a corner ratio below 0:
+    // docs/suspended-cell-validation.md, "The default FAs"); the force beyond is a
+    // regression pin of the folded mesh, not a validated value. (With single-node FAs they
+    // fold in the prestress.)
+    let folds = r.continuum_folds_at_um.expect("the fold is reported");
+    assert!((folds - 12.8).abs() < 0.5, "folds at {folds} um");
     let last = r.last.unwrap();
     assert!((last.displacement_um - 32.0).abs() < 1e-9);
     let f_moving = summary.final_values["moving_cap_fx_nN"];
     let f_fixed = summary.final_values["fixed_cap_fx_nN"];
     assert!((f_moving + f_fixed).abs() < 1e-6 * f_moving);
-    // The MTs stay far from a rope: a few nN at most (with an FA in the grip they reached
-    // hundreds of nN before the stretch stopped).
+    // The MTs stay far from a rope (with an FA in the grip one reached hundreds of nN
+    // before the stretch stopped). With the default FA plaques 3–5 MTs are straight from
+    // about 19 µm and the largest MT force is 24.2 nN at 32 µm (single-node FAs: a few nN).
     let mt_max = summary.final_values["microtubule_axial_force_max_nN"];
-    assert!(mt_max < 20.0, "{mt_max}");
+    assert!(mt_max < 40.0, "{mt_max}");
     // Normalised stiffness F / (πD²/4) / (elongation / D), kPa = nN/µm²: measured
     // 2026-12-04 (docs/suspended-cell-validation.md, "Tension to ~100 %"), a regression pin
     // on the default mesh: 412.853 nN on the 2816-hex8 mesh (now `fast`), 417.800 nN on the
-    // 6912-hex8 default since (+1.2 %).
+    // 6912-hex8 default since (+1.2 %), 472.469 nN with the default FA plaques since
+    // 2026-12-07 (0.583 kPa).
     let d = 2.0 * R;
     let stiffness = last.force_nn / (std::f64::consts::PI * d * d / 4.0) / (32.0 / d);
     eprintln!("force at 32 um: {} nN, {stiffness} kPa", last.force_nn);
     assert!(
-        (last.force_nn / 417.7996675829444 - 1.0).abs() < 1e-6,
+        (last.force_nn / 472.4694813517882 - 1.0).abs() < 1e-6,
         "{}",
         last.force_nn
     );

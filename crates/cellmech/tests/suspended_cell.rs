@@ -1,7 +1,7 @@
 //! The suspended-cell model finds its prestressed equilibrium.
 //!
 //! GOAL: the first step of every suspended-cell analysis. MESH: the default geometry
-//! (2816 hex8, 30 FAs, 60 AFs, 30 MTs of 8 beams, 60 IFs). BCS: 3-2-1 supports on nucleus
+//! (6912 hex8, 30 FAs as 3.5 µm plaques, 60 AFs, 30 MTs of 8 beams, 60 IFs). BCS: 3-2-1 supports on nucleus
 //! nodes. REFERENCE: self-equilibrium: the supports carry no load (relative to the AF
 //! forces); the AFs lose part of their initial prestress force EA·0.24 as the cell
 //! contracts at the FAs; FAs move inward.
@@ -25,12 +25,11 @@ fn suspended_cell_finds_its_prestressed_equilibrium_with_unloaded_supports() {
     let supports = model.supports.clone();
     let fa_nodes = model.geometry.fa_nodes.clone();
     let nodes = model.mesh.nodes.clone();
-    let mut p = Problem::new(
-        model.dof_map,
-        model.terms,
-        Box::new(FaerSparseSolver::default()),
-    )
-    .unwrap();
+    // With the default FA plaques the model carries their ties (30 reference nodes).
+    assert!(model.constraints.is_some());
+    let mut p = model
+        .problem(Box::new(FaerSparseSolver::default()))
+        .unwrap();
     let start = std::time::Instant::now();
     p.run_step(&step, &mut NullObserver).unwrap();
     let elapsed = start.elapsed().as_secs_f64();
@@ -151,12 +150,9 @@ fn suspended_cell_tension_protocol_runs() {
         ],
     ));
     let supports = model.supports.clone();
-    let mut p = Problem::new(
-        model.dof_map,
-        model.terms,
-        Box::new(FaerSparseSolver::default()),
-    )
-    .unwrap();
+    let mut p = model
+        .problem(Box::new(FaerSparseSolver::default()))
+        .unwrap();
     let mut s0 = Step::new("prestress");
     s0.prescribed = supports.iter().map(|&d| (d, Motion::Hold)).collect();
     p.run_step(&s0, &mut NullObserver).unwrap();

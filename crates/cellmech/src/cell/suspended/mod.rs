@@ -430,6 +430,26 @@ pub struct SuspendedCellModel {
     /// Statically determinate supports (3-2-1 on nucleus nodes): they carry no load when
     /// the model is self-equilibrated.
     pub supports: Vec<usize>,
+    /// The FA plaques' ties (each reference node = Σ w·plaque node, in every translation),
+    /// `None` with single-node FAs: build the engine problem with
+    /// [`cellmech_fem::solve::Problem::with_constraints`] (see [`SuspendedCellModel::problem`]).
+    pub constraints: Option<cellmech_fem::constraint::LinearConstraints>,
+}
+
+impl SuspendedCellModel {
+    /// The engine problem of this model (its terms and, with FA plaques, their ties),
+    /// solved by `solver`. Consumes the terms.
+    pub fn problem(
+        self,
+        solver: Box<dyn cellmech_fem::linsolve::LinearSolver>,
+    ) -> Result<cellmech_fem::solve::Problem, cellmech_fem::solve::SolveError> {
+        match self.constraints {
+            Some(c) => {
+                cellmech_fem::solve::Problem::with_constraints(self.dof_map, self.terms, c, solver)
+            }
+            None => cellmech_fem::solve::Problem::new(self.dof_map, self.terms, solver),
+        }
+    }
 }
 
 /// Builds the suspended cell as engine terms (the AF prestrain ramps in during step 0).
@@ -490,12 +510,29 @@ pub fn build_suspended_cell(
         })
         .map(|(n, c)| dof_map.dof(n, c))
         .collect();
+    // Without a pole refinement (refused above) the only ties are the FA plaques'.
+    let constraints = if parts.geometry.ties.is_empty() {
+        None
+    } else {
+        let mut c = cellmech_fem::constraint::LinearConstraints::new(dof_map.num_dofs());
+        cellmech_fem::constraint::hanging::tie_hanging_nodes(
+            &mut c,
+            &dof_map,
+            &parts.geometry.ties,
+        )
+        .map_err(|e| CellModelError::Component {
+            component: "focal adhesions",
+            message: format!("the FA plaques could not be tied: {e}"),
+        })?;
+        Some(c)
+    };
     Ok(SuspendedCellModel {
         geometry: parts.geometry,
         mesh,
         dof_map,
         terms,
         supports,
+        constraints,
     })
 }
 

@@ -12,8 +12,21 @@ use crate::cell::vec3::{distance, dot, norm, sub};
 const R: f64 = 16.132;
 const R_N: f64 = 6.45;
 
-fn default_geometry() -> SuspendedCellGeometry {
-    SuspendedCellGeometry::build(&SuspendedCellParams::default()).unwrap()
+/// The FA pattern itself: every FA one node, no plaque (the defaults before 2026-12-07,
+/// `fa_radius = "0 um"`). The FA node is then where the filaments end, which the pattern
+/// tests below check; the default plaques are tested at the end of this file.
+fn single_node_fas() -> SuspendedCellParams {
+    use crate::cell::fa_plaque::{FaCoupling, FaReference};
+    SuspendedCellParams {
+        fa_radius: 0.0,
+        fa_coupling: FaCoupling::Rigid,
+        fa_reference: FaReference::FaNode,
+        ..SuspendedCellParams::default()
+    }
+}
+
+fn single_node_geometry() -> SuspendedCellGeometry {
+    SuspendedCellGeometry::build(&single_node_fas()).unwrap()
 }
 
 fn print_report(label: &str, g: &SuspendedCellGeometry) {
@@ -22,7 +35,7 @@ fn print_report(label: &str, g: &SuspendedCellGeometry) {
 
 #[test]
 fn default_geometry_has_30_distinct_fa_nodes_on_the_sphere() {
-    let g = default_geometry();
+    let g = single_node_geometry();
     print_report("default", &g);
     assert_eq!(g.report.hex8_elements, 6912);
     assert_eq!(g.report.hex8_elements, MeshResolution::default().elements());
@@ -50,7 +63,7 @@ fn default_geometry_has_30_distinct_fa_nodes_on_the_sphere() {
 
 #[test]
 fn af_edges_are_60_equal_edges_of_length_r_over_phi_with_degree_4() {
-    let g = default_geometry();
+    let g = single_node_geometry();
     assert_eq!(g.af_edges.len(), 60);
     let mut degree: BTreeMap<usize, usize> = BTreeMap::new();
     let unique: BTreeSet<[usize; 2]> = g.af_edges.iter().cloned().collect();
@@ -80,7 +93,7 @@ fn snapping_keeps_positive_jacobians_and_moves_nodes_by_a_fraction_of_an_element
     ] {
         let params = SuspendedCellParams {
             mesh,
-            ..SuspendedCellParams::default()
+            ..single_node_fas()
         };
         let g = SuspendedCellGeometry::build(&params).unwrap();
         print_report(label, &g);
@@ -99,7 +112,7 @@ fn snapping_keeps_positive_jacobians_and_moves_nodes_by_a_fraction_of_an_element
 
 #[test]
 fn symmetric_orientation_snaps_axis_fas_exactly_and_the_other_24_equally() {
-    let params = SuspendedCellParams::default();
+    let params = single_node_fas();
     let res = params.mesh;
     let unsnapped =
         cellmech_fem::mesh::generate::sphere_mesh(&cellmech_fem::mesh::generate::SphereMeshSpec {
@@ -131,10 +144,10 @@ fn symmetric_orientation_snaps_axis_fas_exactly_and_the_other_24_equally() {
 
 #[test]
 fn optimized_orientation_is_no_worse_than_symmetric_and_seeded() {
-    let symmetric = default_geometry();
+    let symmetric = single_node_geometry();
     let params = SuspendedCellParams {
         fa_orientation: FaOrientation::Optimized { trials: 200 },
-        ..SuspendedCellParams::default()
+        ..single_node_fas()
     };
     let g = SuspendedCellGeometry::build(&params).unwrap();
     print_report("optimized", &g);
@@ -150,7 +163,7 @@ fn optimized_orientation_is_no_worse_than_symmetric_and_seeded() {
         SuspendedCellGeometry::build(&SuspendedCellParams {
             mesh: MeshResolution::fine(),
             fa_orientation,
-            ..SuspendedCellParams::default()
+            ..single_node_fas()
         })
         .unwrap()
     };
@@ -165,8 +178,8 @@ fn optimized_orientation_is_no_worse_than_symmetric_and_seeded() {
 
 #[test]
 fn microtubules_run_from_the_centrosome_to_each_fa_and_clear_the_nucleus() {
-    let params = SuspendedCellParams::default();
-    let g = default_geometry();
+    let params = single_node_fas();
+    let g = single_node_geometry();
     assert_eq!(g.microtubules.len(), 30);
     let c = params.centrosome();
     assert!((norm(c) - (R_N + 0.75)).abs() < 1e-12);
@@ -206,7 +219,7 @@ fn microtubules_run_from_the_centrosome_to_each_fa_and_clear_the_nucleus() {
 
 #[test]
 fn microtubule_nodes_are_appended_as_chains() {
-    let g = default_geometry();
+    let g = single_node_geometry();
     let mut mesh = g.mesh.clone();
     let before = mesh.num_nodes();
     let chains = g.append_microtubule_nodes(&mut mesh);
@@ -237,7 +250,7 @@ fn intermediate_filaments_are_tangent_to_the_nucleus_and_anchored_on_distinct_no
             let params = SuspendedCellParams {
                 mesh,
                 if_anchor_rule: rule,
-                ..SuspendedCellParams::default()
+                ..single_node_fas()
             };
             let g = SuspendedCellGeometry::build(&params).unwrap();
             assert_eq!(g.intermediate_filaments.len(), 60);
@@ -308,7 +321,7 @@ fn ifs_per_fa_sets_the_count_and_the_spacing_on_the_tangent_circle() {
     for m in [1, 3] {
         let g = SuspendedCellGeometry::build(&SuspendedCellParams {
             ifs_per_fa: m,
-            ..Default::default()
+            ..single_node_fas()
         })
         .unwrap();
         assert_eq!(g.intermediate_filaments.len(), 30 * m);
@@ -320,12 +333,12 @@ fn ifs_per_fa_sets_the_count_and_the_spacing_on_the_tangent_circle() {
 
 #[test]
 fn same_seed_gives_identical_geometry_and_another_seed_other_curvatures() {
-    let a = default_geometry();
-    let b = default_geometry();
+    let a = single_node_geometry();
+    let b = single_node_geometry();
     assert_eq!(a, b);
     let c = SuspendedCellGeometry::build(&SuspendedCellParams {
         seed: 7,
-        ..Default::default()
+        ..single_node_fas()
     })
     .unwrap();
     assert_eq!(
@@ -341,7 +354,7 @@ fn same_seed_gives_identical_geometry_and_another_seed_other_curvatures() {
             seed,
             mt_bow_min: 0.1,
             mt_bow_max: 0.1,
-            ..Default::default()
+            ..single_node_fas()
         })
         .unwrap()
     };
@@ -352,7 +365,7 @@ fn same_seed_gives_identical_geometry_and_another_seed_other_curvatures() {
 
 #[test]
 fn invalid_parameters_are_rejected_with_clear_errors() {
-    let base = SuspendedCellParams::default();
+    let base = single_node_fas();
     let check = |p: SuspendedCellParams, needle: &str| {
         let err = SuspendedCellGeometry::build(&p).unwrap_err();
         assert!(err.to_string().contains(needle), "{err}");
@@ -478,7 +491,7 @@ fn centrosome_direction_towards_an_fa_or_its_antipode_still_routes() {
     // The first canonical vertex is +z: MT 0 is radial (θ = 0), MT 1 antipodal (θ = π).
     let g = SuspendedCellGeometry::build(&SuspendedCellParams {
         centrosome_direction: [0.0, 0.0, 1.0],
-        ..Default::default()
+        ..single_node_fas()
     })
     .unwrap();
     assert!(g.report.min_mt_clearance >= 0.25);
@@ -490,13 +503,13 @@ fn centrosome_direction_towards_an_fa_or_its_antipode_still_routes() {
 
 #[test]
 fn pole_refinement_splits_only_near_the_poles_and_keeps_the_fas_and_the_sphere() {
-    let base = default_geometry();
+    let base = single_node_geometry();
     let g = SuspendedCellGeometry::build(&SuspendedCellParams {
         pole_refinement: PoleRefinement {
             levels: 1,
             radius: 8.0,
         },
-        ..Default::default()
+        ..single_node_fas()
     })
     .unwrap();
     g.mesh.validate().unwrap();
@@ -568,7 +581,7 @@ fn pole_refinement_out_of_range_is_a_clear_error() {
     for (levels, radius, want) in [(4, 8.0, "refinement.levels"), (1, 0.0, "refinement.radius")] {
         let e = SuspendedCellGeometry::build(&SuspendedCellParams {
             pole_refinement: PoleRefinement { levels, radius },
-            ..Default::default()
+            ..single_node_fas()
         })
         .unwrap_err()
         .to_string();
@@ -595,7 +608,10 @@ fn a_refined_cell_ties_its_hanging_nodes_and_its_membrane_covers_the_sphere_once
         core_fraction: 0.5,
     };
     let cell = |levels: u8| {
-        let mut c = SuspendedCell::default();
+        let mut c = SuspendedCell {
+            params: single_node_fas(),
+            ..SuspendedCell::default()
+        };
         c.params.mesh = coarse;
         c.params.pole_refinement = PoleRefinement {
             levels,
@@ -627,7 +643,10 @@ fn a_refined_cell_ties_its_hanging_nodes_and_its_membrane_covers_the_sphere_once
 
     // Refined at the poles only: hanging nodes, passed to the model for tying, and the
     // membrane is the leaf faces (a coarse face under four fine ones is not listed).
-    let mut c = SuspendedCell::default();
+    let mut c = SuspendedCell {
+        params: single_node_fas(),
+        ..SuspendedCell::default()
+    };
     c.params.mesh = coarse;
     c.params.pole_refinement = PoleRefinement {
         levels: 1,
@@ -645,7 +664,10 @@ fn a_refined_cell_ties_its_hanging_nodes_and_its_membrane_covers_the_sphere_once
 
 #[test]
 fn split_filaments_are_embedded_on_their_chords_and_the_engine_term_builder_refuses_them() {
-    let mut cell = SuspendedCell::default();
+    let mut cell = SuspendedCell {
+        params: single_node_fas(),
+        ..SuspendedCell::default()
+    };
     cell.params.mesh = MeshResolution {
         core_divisions: 4,
         shell_layers: 2,
@@ -693,7 +715,7 @@ fn split_filaments_are_embedded_on_their_chords_and_the_engine_term_builder_refu
 #[test]
 fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
     use crate::cell::fa_plaque::FaCoupling;
-    let plain = default_geometry();
+    let plain = single_node_geometry();
     assert_eq!(plain.report.fa_plaque_nodes, 0);
     assert_eq!(
         plain.ties, plain.hanging,
@@ -710,7 +732,7 @@ fn fa_plaques_tie_the_surface_nodes_near_each_fa_and_nothing_else() {
         let g = SuspendedCellGeometry::build(&SuspendedCellParams {
             fa_radius: radius,
             fa_coupling: coupling,
-            ..Default::default()
+            ..single_node_fas()
         })
         .unwrap();
         // The plaques change ties only: the mesh and the FAs stay where they were.
@@ -784,14 +806,14 @@ fn a_separate_fa_reference_node_carries_the_filaments_from_the_plaques_centroid(
     let plain = SuspendedCellGeometry::build(&SuspendedCellParams {
         fa_radius: radius,
         fa_coupling: FaCoupling::DistributingLinear,
-        ..Default::default()
+        ..single_node_fas()
     })
     .unwrap();
     let g = SuspendedCellGeometry::build(&SuspendedCellParams {
         fa_radius: radius,
         fa_coupling: FaCoupling::DistributingLinear,
         fa_reference: FaReference::Separate,
-        ..Default::default()
+        ..single_node_fas()
     })
     .unwrap();
     assert_eq!(g.fa_nodes, plain.fa_nodes);
@@ -843,4 +865,25 @@ fn a_separate_fa_reference_node_carries_the_filaments_from_the_plaques_centroid(
     {
         assert_eq!(*f, [reference[&p[0]], p[1]]);
     }
+}
+
+/// The default FAs (since 2026-12-07) are 3.5 µm plaques with linear weights and a
+/// separate reference node each, the configuration tested above: with single-node FAs the
+/// default compression folds the elements at the FAs from 16–20 % (docs/
+/// suspended-cell-validation.md, "The default FAs").
+#[test]
+fn the_default_fas_are_linear_plaques_with_separate_reference_nodes() {
+    use crate::cell::fa_plaque::{FaCoupling, FaReference};
+    let d = SuspendedCellParams::default();
+    assert_eq!(d.fa_radius, 3.5);
+    assert_eq!(d.fa_coupling, FaCoupling::DistributingLinear);
+    assert_eq!(d.fa_reference, FaReference::Separate);
+    let g = SuspendedCellGeometry::build(&d).unwrap();
+    let plain = single_node_geometry();
+    assert_eq!(g.mesh.nodes.len(), plain.mesh.nodes.len() + 30);
+    assert!(
+        g.report.fa_plaque_nodes >= 4 * 30,
+        "{}",
+        g.report.fa_plaque_nodes
+    );
 }
