@@ -84,6 +84,29 @@ pub fn model_picture_at(model: &ModelSpec, positions: &[[f64; 3]], title: String
             segments,
         });
     }
+    // Ties whose tied node is no element's corner (an FA plaque's reference node, not a
+    // hanging node): a spoke from it to each of its masters shows the plaque.
+    let corners: std::collections::HashSet<usize> = mesh
+        .blocks
+        .iter()
+        .flat_map(|b| b.connectivity.iter().copied())
+        .collect();
+    let plaques: Vec<_> = model
+        .hanging
+        .iter()
+        .filter(|t| !corners.contains(&t.node))
+        .collect();
+    if !plaques.is_empty() {
+        groups.push(LineGroup {
+            label: format!("FA plaque ties ({})", plaques.len()),
+            color: (255, 127, 14),
+            width: 1,
+            segments: plaques
+                .iter()
+                .flat_map(|t| t.masters.iter().map(|&(m, _)| [x(t.node), x(m)]))
+                .collect(),
+        });
+    }
     ModelPicture {
         title,
         views: vec![
@@ -196,4 +219,37 @@ pub fn write_model(
         picture,
         "model.json".into(),
     ])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn picture(cell: &str) -> ModelPicture {
+        let text = format!(
+            "title = \"t\"\n[cell]\nmodel = \"suspended\"\nresolution = \"fast\"\n{cell}\n\
+             [protocol]\nkind = \"micropipette-tension\"\n"
+        );
+        let s = crate::scenario::parse(&text, "t.toml", Path::new(".")).unwrap();
+        model_picture(&s.model, "t")
+    }
+
+    /// The default FA plaques are drawn as spokes from each reference node to its plaque
+    /// nodes; single-node FAs have none.
+    #[test]
+    fn the_picture_draws_each_fa_plaque_as_spokes_to_its_nodes() {
+        let with = picture("");
+        let spokes = with
+            .groups
+            .iter()
+            .find(|g| g.label == "FA plaque ties (30)")
+            .expect("a group of 30 plaques");
+        // Every FA node and at least one plaque node per FA.
+        assert!(spokes.segments.len() >= 60, "{}", spokes.segments.len());
+        let without = picture("fa_radius = \"0 um\"");
+        assert!(without
+            .groups
+            .iter()
+            .all(|g| !g.label.starts_with("FA plaque")));
+    }
 }
