@@ -41,6 +41,10 @@ pub enum FaCoupling {
 /// tied to the plaque and the FA node, which stays free; no tie is rewritten), and the
 /// caller re-points the FA's filaments onto it. Returns the ties, the number of plaque nodes
 /// and the reference nodes ([`FaPlaques`]).
+///
+/// `centres` (one per FA node, or empty) are the points the plaques are centred on: which
+/// FA a surface node belongs to and its linear weight are measured from them (an FA site
+/// the FA node was not moved onto, `fa_snap = "none"`). Empty: the FA nodes themselves.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn tie_fa_plaques(
     mesh: &mut Mesh,
@@ -52,6 +56,7 @@ pub(crate) fn tie_fa_plaques(
     coupling: FaCoupling,
     faces: &[[usize; 4]],
     reference: FaReference,
+    centres: &[[f64; 3]],
 ) -> FaPlaques {
     use cellmech_fem::mesh::refine::HangingNode;
     use std::collections::{BTreeMap, HashSet};
@@ -64,6 +69,13 @@ pub(crate) fn tie_fa_plaques(
     }
     let tied: HashSet<usize> = hanging.iter().map(|h| h.node).collect();
     let fas: HashSet<usize> = fa_nodes.iter().copied().collect();
+    let centre_of: BTreeMap<usize, [f64; 3]> = fa_nodes
+        .iter()
+        .enumerate()
+        .map(|(k, &f)| (f, centres.get(k).copied().unwrap_or(mesh.nodes[f])))
+        .collect();
+    let from_centre =
+        |n: usize, f: usize| crate::cell::vec3::distance(mesh.nodes[n], centre_of[&f]);
     let mut plaque: BTreeMap<usize, usize> = BTreeMap::new();
     for &n in surface {
         if fas.contains(&n) || tied.contains(&n) || skip(n) {
@@ -71,7 +83,7 @@ pub(crate) fn tie_fa_plaques(
         }
         let nearest = fa_nodes
             .iter()
-            .map(|&f| (crate::cell::vec3::distance(mesh.nodes[n], mesh.nodes[f]), f))
+            .map(|&f| (from_centre(n, f), f))
             .min_by(|a, b| a.0.total_cmp(&b.0));
         if let Some((d, f)) = nearest {
             if d <= radius {
@@ -90,8 +102,8 @@ pub(crate) fn tie_fa_plaques(
             };
             let weight = |n: usize, f: usize| match coupling {
                 FaCoupling::DistributingLinear => {
-                    let d = crate::cell::vec3::distance(mesh.nodes[n], mesh.nodes[f]);
-                    area.get(&n).copied().unwrap_or(0.0) * (1.0 - d / radius).max(0.0)
+                    area.get(&n).copied().unwrap_or(0.0)
+                        * (1.0 - from_centre(n, f) / radius).max(0.0)
                 }
                 _ => 1.0,
             };
@@ -103,14 +115,13 @@ pub(crate) fn tie_fa_plaques(
                 }
             }
             if reference == FaReference::Separate {
-                // The FA node joins its plaque with its full weight (distance 0).
+                // The FA node joins its plaque with its own weight (full at its centre).
                 for (&f, nodes) in members.iter_mut() {
-                    let own = match coupling {
-                        FaCoupling::DistributingLinear => area.get(&f).copied().unwrap_or(0.0),
-                        _ => 1.0,
-                    };
-                    nodes.push((f, own));
-                    nodes.sort_by_key(|p| p.0);
+                    let own = weight(f, f);
+                    if own > 0.0 {
+                        nodes.push((f, own));
+                        nodes.sort_by_key(|p| p.0);
+                    }
                 }
             }
             members
@@ -304,6 +315,7 @@ mod tests {
                 FaCoupling::Distributing,
                 &[],
                 reference,
+                &[],
             );
             // The FA at x = 1 has plaque nodes at x = 0.5 and x = 1 only: lopsided.
             assert_eq!(plaques.plaque_nodes, 5);

@@ -769,6 +769,7 @@ impl AdherentCellGeometry {
             params.fa_coupling,
             &boundary_faces,
             params.fa_reference,
+            &[],
         );
         let (hanging, plaque_nodes) = (std::mem::take(&mut plaques.ties), plaques.plaque_nodes);
         // Where the filaments of each FA end: the FA node, or its coupling's reference node.
@@ -1082,6 +1083,7 @@ mod tests {
                 coupling,
                 &[],
                 reference,
+                &[],
             )
         };
         let rigid = tie(&mut mesh.clone(), FaCoupling::Rigid, FaReference::FaNode);

@@ -354,6 +354,44 @@ pub(crate) fn snap_sites(
     })
 }
 
+/// The nearest surface node of each site, nothing moved (`fa_snap = "none"`): the
+/// outcome's snap distances are the sites' offsets from their FA nodes, and its scaled
+/// Jacobians (before = after) those of the elements at the FA nodes.
+pub(crate) fn nearest_sites(
+    mesh: &Mesh,
+    surface: &SurfaceNodes,
+    sites: &[V3],
+) -> Result<SnapOutcome, CellGeometryError> {
+    let mut owner = std::collections::HashMap::new();
+    let mut fa_nodes = Vec::with_capacity(sites.len());
+    let (mut max_d, mut max_rel) = (0.0f64, 0.0f64);
+    for (k, &p) in sites.iter().enumerate() {
+        let (slot, d) = surface.nearest(p);
+        let node = surface.nodes[slot];
+        if let Some(&first) = owner.get(&node) {
+            return Err(CellGeometryError::FaSnapCollision {
+                first,
+                second: k,
+                node,
+            });
+        }
+        owner.insert(node, k);
+        fa_nodes.push(node);
+        max_d = max_d.max(d);
+        max_rel = max_rel.max(d / surface.sizes[slot]);
+    }
+    let touched: BTreeSet<usize> = fa_nodes.iter().copied().collect();
+    let (min_j, sj, _) = check_touched_elements(mesh, &mesh.nodes, &touched)?;
+    Ok(SnapOutcome {
+        fa_nodes,
+        max_snap_distance: max_d,
+        max_relative_snap: max_rel,
+        moved_nodes: 0,
+        min_gauss_jacobian: min_j,
+        min_scaled_jacobian: (sj, sj),
+    })
+}
+
 /// Gauss-point Jacobians of every hex8 element touching a moved node must stay positive.
 /// Returns (min Gauss Jacobian, min scaled Jacobian before, after) over those elements.
 fn check_touched_elements(

@@ -134,6 +134,9 @@ pub struct SuspendedCellParams {
     /// Where a distributing plaque's filaments end: the FA node, or a separate node at the
     /// plaque's weighted centroid ([`crate::cell::fa_plaque::FaReference`]).
     pub fa_reference: crate::cell::fa_plaque::FaReference,
+    /// Whether the nearest surface node is moved onto each FA site (`fa_snap =
+    /// "move-node"`); otherwise nothing moves and a plaque is centred on the site.
+    pub fa_snap: bool,
     /// Truss elements per AF: 1, one straight truss between its FAs; more, the AF split
     /// along its chord with the interior nodes embedded in the cytoplasm
     /// (`actin.coupling = "embedded"`).
@@ -544,7 +547,11 @@ impl SuspendedCellGeometry {
         let rotation =
             geometry::choose_orientation(&surface, cell_radius, params.fa_orientation, params.seed);
         let sites = geometry::fa_sites(&rotation, cell_radius);
-        let snap = geometry::snap_sites(&mut mesh, &surface, &sites, nucleus_radius)?;
+        let snap = if params.fa_snap {
+            geometry::snap_sites(&mut mesh, &surface, &sites, nucleus_radius)?
+        } else {
+            geometry::nearest_sites(&mesh, &surface, &sites)?
+        };
         let fa_nodes = snap.fa_nodes.clone();
         let af_edges: Vec<[usize; 2]> = icosidodecahedron_edges(&std::array::from_fn(|k| sites[k]))
             .into_iter()
@@ -612,6 +619,7 @@ impl SuspendedCellGeometry {
             params.fa_coupling,
             &surface_faces,
             params.fa_reference,
+            &sites,
         );
         let (ties, fa_plaque_nodes) = (std::mem::take(&mut plaques.ties), plaques.plaque_nodes);
         // Where the filaments of each FA end: the FA node, or its coupling's reference node

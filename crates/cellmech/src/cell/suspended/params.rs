@@ -385,6 +385,14 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             "choice ([validation](suspended-cell-validation.md#fa-plaques-re-run-and-an-objective-coupling-2026-12-07-stop-49): with the FA node as reference the pentagon-on-axis prestress loads the supports with 1.49 nN and folds the nucleus's centre)",
         ),
         p(
+            "fa_snap",
+            K::Choice(&["move-node", "none"]),
+            D::Word("move-node"),
+            ANY,
+            "how an FA site goes onto the mesh: `move-node`, the nearest surface node is moved onto the site (and the radial column of cytoplasm nodes beneath it turned with it); `none`, nothing moves: the FA node is the nearest surface node where it is, and a plaque (`fa_radius` > 0) is centred on the site itself (its members, weights and reference node measured from the site)",
+            "choice ([validation](suspended-cell-validation.md#fas-centred-on-their-sites-2026-12-07-stop-50): with the pattern turned, the move distorts two FAs' elements to a scaled Jacobian of 0.25 and they fold from 12.8 um of stretch)",
+        ),
+        p(
             "orientation_trials",
             K::Count,
             D::Count(2000),
@@ -629,6 +637,7 @@ pub fn from_values(v: &ParamValues) -> (SuspendedCellParams, SuspendedCellMateri
             "separate" => crate::cell::fa_plaque::FaReference::Separate,
             _ => crate::cell::fa_plaque::FaReference::FaNode,
         },
+        fa_snap: v.word("fa_snap") != "none",
     };
     let materials = SuspendedCellMaterials {
         cytoplasm_shear_modulus: v.number("cytoplasm.shear_modulus"),
