@@ -105,3 +105,33 @@ fn microtubules_born_in_the_prestressed_cell_carry_the_tension_test() {
     assert!(v(&born, "microtubule_filaments_in_tension") >= 10.0);
     assert!(v(&born, "microtubule_axial_force_max_nN") > 0.1 * force(&born));
 }
+
+/// With the MT family switched off there is nothing to carry: `stress_free =
+/// "prestressed-cell"` must then change nothing. Before this was so, an empty first pass
+/// still gave the prestress a guess path (every increment started Newton from the
+/// unstressed state), which changed the iterations on this mesh and, with the default FA
+/// plaques on the default mesh, made the prestress crawl from 85 % of its ramp.
+#[test]
+fn a_switched_off_family_born_in_the_prestressed_cell_changes_nothing() {
+    let off = "[families.microtubule]\nenabled = false";
+    let born = run_cell("off-born", "prestress", EMBEDDED_BORN_PRESTRESSED, off);
+    // Free MTs born in the unstressed cell: the same prestress increments (0.5, then up
+    // to 1) as MTs born in the prestressed cell; embedded MTs born in the unstressed cell
+    // take smaller ones.
+    let plain = run_cell(
+        "off-plain",
+        "prestress",
+        "coupling = \"free\"\ncentrosome = \"tied\"",
+        off,
+    );
+    assert!(born.size.prestressed_reference.is_none());
+    assert_eq!(born.steps[0].iterations, plain.steps[0].iterations);
+    assert_eq!(born.steps[0].increments, plain.steps[0].increments);
+    for (k, v) in &plain.final_values {
+        let b = born.final_values[k];
+        assert!(
+            b == *v || (b.is_nan() && v.is_nan()),
+            "{k}: {b} against {v}"
+        );
+    }
+}

@@ -213,7 +213,8 @@ pub fn build(model: &ModelSpec) -> Result<BuiltModel, BuildError> {
         .prestressed_reference
         .as_ref()
         .map(|spec| prestressed_reference::first_pass(model, spec))
-        .transpose()?;
+        .transpose()?
+        .flatten();
     terms.extend(structures::structure_terms_carried(
         mesh,
         structures,

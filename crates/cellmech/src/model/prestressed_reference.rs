@@ -84,17 +84,25 @@ impl FirstPass {
 }
 
 /// Runs the first pass of `model` for `spec` (module documentation).
+///
+/// `None` when the families have no enabled filament (switched off): there is nothing to
+/// carry, and the first step runs as it would without a prestressed reference. (A guess
+/// path would make every increment start from the unstressed state: the suspended cell's
+/// prestress with its MTs switched off then crawled at 0.0005 of the step from 85 % of
+/// the ramp, with FA plaques.)
 pub(super) fn first_pass(
     model: &ModelSpec,
     spec: &PrestressedReference,
-) -> Result<FirstPass, BuildError> {
+) -> Result<Option<FirstPass>, BuildError> {
     let start = std::time::Instant::now();
-    let (knots, farthest) = carried_positions(model, spec)?;
+    let Some((knots, farthest)) = carried_positions(model, spec)? else {
+        return Ok(None);
+    };
     let positions = knots
         .iter()
         .map(|k| (k.time, k.positions(&model.mesh.nodes)))
         .collect();
-    Ok(FirstPass {
+    Ok(Some(FirstPass {
         knots,
         positions,
         report: PrestressedReferenceReport {
@@ -102,15 +110,16 @@ pub(super) fn first_pass(
             max_carried_um: farthest,
             wall_time_s: start.elapsed().as_secs_f64(),
         },
-    })
+    }))
 }
 
 /// The first pass's state at each converged increment of its first step (see [`Knot`]),
-/// and the largest distance a filament node is carried (µm).
+/// and the largest distance a filament node is carried (µm); `None` without an enabled
+/// filament of the families.
 fn carried_positions(
     model: &ModelSpec,
     spec: &PrestressedReference,
-) -> Result<(Vec<Knot>, f64), BuildError> {
+) -> Result<Option<(Vec<Knot>, f64)>, BuildError> {
     let fail = |message: String| BuildError::PrestressedReference(message);
     let mut first = model.clone();
     first.prestressed_reference = None;
@@ -138,13 +147,7 @@ fn carried_positions(
     nodes.dedup();
     let mesh = &model.mesh;
     if nodes.is_empty() {
-        return Ok((
-            vec![Knot {
-                time: 1.0,
-                dofs: vec![[0.0; 6]; mesh.num_nodes()],
-            }],
-            0.0,
-        ));
+        return Ok(None);
     }
     let blocks: Vec<&str> = spec.host_blocks.iter().map(String::as_str).collect();
     let locator = HostLocator::new(mesh, &blocks).map_err(|e| fail(e.to_string()))?;
@@ -205,7 +208,7 @@ fn carried_positions(
             spec.families
         )));
     }
-    Ok((recorder.knots, recorder.farthest))
+    Ok(Some((recorder.knots, recorder.farthest)))
 }
 
 /// Records the carried state at every converged increment.
