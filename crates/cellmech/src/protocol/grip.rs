@@ -190,7 +190,8 @@ pub fn resolve_cap_ring(
         moved[n] = true;
     }
     for tie in ties {
-        if keep.contains(&tie.node) || !tie.masters.iter().any(|&(m, _)| moved[m]) {
+        let touched = moved[tie.node] || tie.masters.iter().any(|&(m, _)| moved[m]);
+        if keep.contains(&tie.node) || !touched {
             continue;
         }
         let mut x = [0.0; 3];

@@ -290,16 +290,12 @@ pub(crate) struct SnapOutcome {
     pub min_scaled_jacobian: (f64, f64),
 }
 
-/// Moves the nearest surface node onto each site. The cytoplasm nodes of the same radial
-/// column (same direction from the centre, radius between the nucleus and the cell) turn
-/// with it by a fraction `(r − r_n)/(R − r_n)` of the surface node's rotation, so the
-/// radial element columns shear smoothly instead of only the top layer.
-pub(crate) fn snap_sites(
-    mesh: &mut Mesh,
+/// The nearest surface node of each site (distinct: two sites on one node is an error),
+/// the largest distance and the largest distance over the local surface edge length.
+fn nearest_surface_nodes(
     surface: &SurfaceNodes,
     sites: &[V3],
-    nucleus_radius: f64,
-) -> Result<SnapOutcome, CellGeometryError> {
+) -> Result<(Vec<usize>, f64, f64), CellGeometryError> {
     let mut owner = std::collections::HashMap::new();
     let mut fa_nodes = Vec::with_capacity(sites.len());
     let (mut max_d, mut max_rel) = (0.0f64, 0.0f64);
@@ -318,6 +314,20 @@ pub(crate) fn snap_sites(
         max_d = max_d.max(d);
         max_rel = max_rel.max(d / surface.sizes[slot]);
     }
+    Ok((fa_nodes, max_d, max_rel))
+}
+
+/// Moves the nearest surface node onto each site. The cytoplasm nodes of the same radial
+/// column (same direction from the centre, radius between the nucleus and the cell) turn
+/// with it by a fraction `(r − r_n)/(R − r_n)` of the surface node's rotation, so the
+/// radial element columns shear smoothly instead of only the top layer.
+pub(crate) fn snap_sites(
+    mesh: &mut Mesh,
+    surface: &SurfaceNodes,
+    sites: &[V3],
+    nucleus_radius: f64,
+) -> Result<SnapOutcome, CellGeometryError> {
+    let (fa_nodes, max_d, max_rel) = nearest_surface_nodes(surface, sites)?;
     let mut moved = BTreeSet::new();
     let before = mesh.nodes.clone();
     for (&node, &p) in fa_nodes.iter().zip(sites) {
@@ -362,24 +372,7 @@ pub(crate) fn nearest_sites(
     surface: &SurfaceNodes,
     sites: &[V3],
 ) -> Result<SnapOutcome, CellGeometryError> {
-    let mut owner = std::collections::HashMap::new();
-    let mut fa_nodes = Vec::with_capacity(sites.len());
-    let (mut max_d, mut max_rel) = (0.0f64, 0.0f64);
-    for (k, &p) in sites.iter().enumerate() {
-        let (slot, d) = surface.nearest(p);
-        let node = surface.nodes[slot];
-        if let Some(&first) = owner.get(&node) {
-            return Err(CellGeometryError::FaSnapCollision {
-                first,
-                second: k,
-                node,
-            });
-        }
-        owner.insert(node, k);
-        fa_nodes.push(node);
-        max_d = max_d.max(d);
-        max_rel = max_rel.max(d / surface.sizes[slot]);
-    }
+    let (fa_nodes, max_d, max_rel) = nearest_surface_nodes(surface, sites)?;
     let touched: BTreeSet<usize> = fa_nodes.iter().copied().collect();
     let (min_j, sj, _) = check_touched_elements(mesh, &mesh.nodes, &touched)?;
     Ok(SnapOutcome {
