@@ -356,12 +356,7 @@ fn the_grip_ring_keeps_tied_nodes_on_their_masters_and_the_prestress_self_equili
         if fas.contains(&tie.node) {
             continue;
         }
-        let mut x = [0.0; 3];
-        for &(m, w) in &tie.masters {
-            for (c, v) in x.iter_mut().zip(mesh.nodes[m]) {
-                *c += w * v;
-            }
-        }
+        let x = tie.tied_position(&mesh.nodes);
         let p = mesh.nodes[tie.node];
         let off = (0..3).map(|k| (p[k] - x[k]).abs()).fold(0.0, f64::max);
         assert!(off < 1e-12 * R, "tied node {} is {off} um off", tie.node);

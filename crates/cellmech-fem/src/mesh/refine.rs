@@ -52,6 +52,26 @@ pub struct HangingNode {
     pub masters: Vec<(usize, f64)>,
 }
 
+impl HangingNode {
+    /// Where the tie puts the node among `nodes`: Σ w Xₘ over its masters. A tied node
+    /// must sit there in the reference configuration, or the tie does not follow rigid
+    /// rotations (docs/design.md, "Linear constraints").
+    pub fn tied_position(&self, nodes: &[[f64; 3]]) -> [f64; 3] {
+        weighted_position(&self.masters, nodes)
+    }
+}
+
+/// Σ w Xₙ over `(node, weight)` pairs, positions from `nodes`.
+pub fn weighted_position(pairs: &[(usize, f64)], nodes: &[[f64; 3]]) -> [f64; 3] {
+    let mut x = [0.0; 3];
+    for &(n, w) in pairs {
+        for (c, v) in x.iter_mut().zip(nodes[n]) {
+            *c += w * v;
+        }
+    }
+    x
+}
+
 /// A refined mesh and what the solver needs to keep it conforming.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RefinedMesh {

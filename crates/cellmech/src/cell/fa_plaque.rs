@@ -141,26 +141,22 @@ pub(crate) fn tie_fa_plaques(
     // spurious moment (on the default suspended mesh the centroid lies 0.13–0.25 µm from
     // the FA node, mostly inwards: the plaque is a spherical cap).
     let mut references = BTreeMap::new();
-    let stands_for: BTreeMap<usize, Vec<(usize, f64)>> =
-        if reference == FaReference::Separate && coupling != FaCoupling::Rigid {
-            stands_for
-                .into_iter()
-                .map(|(f, masters)| {
-                    let r = mesh.nodes.len();
-                    let mut centroid = [0.0; 3];
-                    for &(n, w) in &masters {
-                        for (c, x) in centroid.iter_mut().zip(mesh.nodes[n]) {
-                            *c += w * x;
-                        }
-                    }
-                    mesh.nodes.push(centroid);
-                    references.insert(f, r);
-                    (r, masters)
-                })
-                .collect()
-        } else {
-            stands_for
-        };
+    let stands_for: BTreeMap<usize, Vec<(usize, f64)>> = if reference == FaReference::Separate
+        && coupling != FaCoupling::Rigid
+    {
+        stands_for
+            .into_iter()
+            .map(|(f, masters)| {
+                let r = mesh.nodes.len();
+                let centroid = cellmech_fem::mesh::refine::weighted_position(&masters, &mesh.nodes);
+                mesh.nodes.push(centroid);
+                references.insert(f, r);
+                (r, masters)
+            })
+            .collect()
+    } else {
+        stands_for
+    };
     let rewrite: &BTreeMap<usize, Vec<(usize, f64)>> = if references.is_empty() {
         &stands_for
     } else {
@@ -294,14 +290,8 @@ mod tests {
             std::array::from_fn(|i| x[i] * t.cos() + kx[i] * t.sin() + k[i] * kd * (1.0 - t.cos()))
         };
         let miss = |mesh: &Mesh, tie: &cellmech_fem::mesh::refine::HangingNode| -> f64 {
-            let mut x = [0.0; 3];
-            for &(m, w) in &tie.masters {
-                let xm = rotate(mesh.nodes[m]);
-                for i in 0..3 {
-                    x[i] += w * xm[i];
-                }
-            }
-            crate::cell::vec3::distance(x, rotate(mesh.nodes[tie.node]))
+            let rotated: Vec<[f64; 3]> = mesh.nodes.iter().map(|&x| rotate(x)).collect();
+            crate::cell::vec3::distance(tie.tied_position(&rotated), rotated[tie.node])
         };
         for reference in [FaReference::FaNode, FaReference::Separate] {
             let mut m = mesh.clone();

@@ -194,13 +194,7 @@ pub fn resolve_cap_ring(
         if keep.contains(&tie.node) || !touched {
             continue;
         }
-        let mut x = [0.0; 3];
-        for &(m, w) in &tie.masters {
-            for (c, v) in x.iter_mut().zip(mesh.nodes[m]) {
-                *c += w * v;
-            }
-        }
-        mesh.nodes[tie.node] = x;
+        mesh.nodes[tie.node] = tie.tied_position(&mesh.nodes);
         moved[tie.node] = true;
     }
     let mut min_relative_jacobian = f64::INFINITY;

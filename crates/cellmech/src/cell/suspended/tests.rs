@@ -836,13 +836,7 @@ fn a_separate_fa_reference_node_carries_the_filaments_from_the_plaques_centroid(
                 !g.ties.iter().any(|h| h.node == fa),
                 "the FA node stays free"
             );
-            let mut centroid = [0.0; 3];
-            for &(m, w) in &t.masters {
-                for (c, x) in centroid.iter_mut().zip(g.mesh.nodes[m]) {
-                    *c += w * x;
-                }
-            }
-            assert!(distance(centroid, g.mesh.nodes[t.node]) < 1e-12);
+            assert!(distance(t.tied_position(&g.mesh.nodes), g.mesh.nodes[t.node]) < 1e-12);
             let inward = norm(g.mesh.nodes[fa]) - norm(g.mesh.nodes[t.node]);
             assert!(
                 inward > 0.0 && distance(g.mesh.nodes[fa], g.mesh.nodes[t.node]) < 0.2 * radius
