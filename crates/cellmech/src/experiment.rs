@@ -49,7 +49,8 @@ impl CellModel {
     }
 
     /// Builds the cell for `protocol`: an adherent cell is refined at the protocol's
-    /// indentation site.
+    /// indentation site, a suspended one under the protocol's tools
+    /// ([`SuspendedCell::for_protocol`]).
     pub fn build_for(&self, protocol: &Protocol) -> Result<BuiltCell, CellModelError> {
         match (self, protocol.indentation_site()) {
             (CellModel::Adherent(c), Some(site)) => {
@@ -57,6 +58,7 @@ impl CellModel {
                 c.site = Some(site);
                 c.build()
             }
+            (CellModel::Suspended(c), _) => c.for_protocol(protocol).build(),
             _ => self.build(),
         }
     }

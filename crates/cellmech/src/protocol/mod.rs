@@ -104,6 +104,15 @@ impl Protocol {
         }
     }
 
+    /// The refinement a suspended cell's mesh gets under the protocol's tools (compression:
+    /// under the plates), if any.
+    pub fn pole_refinement(&self) -> Option<crate::cell::suspended::PoleRefinement> {
+        match self {
+            Protocol::MicroplateCompression(p) if p.refinement.levels > 0 => Some(p.refinement),
+            _ => None,
+        }
+    }
+
     /// Adds the protocol's node sets, tools and steps to `cell.model` (which must have none
     /// yet) and returns the plan. The error names the parameter and says what was expected.
     pub fn apply(&self, cell: &mut BuiltCell) -> Result<ProtocolPlan, ProtocolError> {
@@ -256,6 +265,8 @@ pub enum ProtocolPlan {
     MicroplateCompression {
         /// The moving plate.
         moving_tool: ToolHandle,
+        /// The plate that stays.
+        fixed_tool: ToolHandle,
         /// Step that ends with the plates touching.
         contact_step: usize,
         /// Compression steps, in order, with their target deformation of the diameter.
@@ -730,5 +741,89 @@ mod tests {
             .unwrap();
         let built = compression_on_a_coarse_cell(SuspendedCell::from_values(&values), &protocol);
         assert_compression_solver(&built, false, 0.0, "foundation without the bound");
+    }
+
+    #[test]
+    fn a_compression_refines_the_suspended_cell_under_the_plates_unless_the_cell_sets_its_own() {
+        use crate::cell::suspended::PoleRefinement;
+        let compression = Protocol::MicroplateCompression(MicroplateCompression::default());
+        let tension = Protocol::MicropipetteTension(MicropipetteTension::default());
+        let cell = SuspendedCell::default();
+        assert_eq!(cell.params.pole_refinement.levels, 0);
+        let under_plates = PoleRefinement {
+            levels: 1,
+            radius: 6.0,
+        };
+        assert_eq!(compression.pole_refinement(), Some(under_plates));
+        assert_eq!(
+            cell.for_protocol(&compression).params.pole_refinement,
+            under_plates
+        );
+        assert_eq!(tension.pole_refinement(), None);
+        assert_eq!(*cell.for_protocol(&tension), cell);
+        // The cell's own refinement (a convergence check) replaces the protocol's.
+        let mut own = cell.clone();
+        own.params.pole_refinement = PoleRefinement {
+            levels: 1,
+            radius: 100.0,
+        };
+        assert_eq!(*own.for_protocol(&compression), own);
+        // `refinement.levels = 0` in [protocol]: none.
+        let table = Protocol::table("microplate-compression").unwrap();
+        let mut values = crate::param::ParamValues::defaults(table);
+        values
+            .set(
+                table,
+                "refinement.levels",
+                crate::param::ParamValue::Count(0),
+            )
+            .unwrap();
+        let unrefined = Protocol::from_values("microplate-compression", &values).unwrap();
+        assert_eq!(unrefined.pole_refinement(), None);
+        assert_eq!(*cell.for_protocol(&unrefined), cell);
+    }
+
+    #[test]
+    fn the_compression_scenario_builds_its_cell_refined_under_the_plates() {
+        // The scenario file and the library build the same mesh: split near the poles,
+        // hanging nodes tied, the FAs where the unrefined cell has them.
+        let coarse = "[cell]\ncore_divisions = 4\nshell_layers = 2\nouter_layers = 2\n";
+        let parse = |protocol: &str| {
+            let text = format!("title = \"t\"\n{coarse}[protocol]\n{protocol}\n");
+            crate::scenario::parse(&text, "t.toml", std::path::Path::new(".")).unwrap()
+        };
+        let hex8 = |s: &crate::scenario::Scenario| -> usize {
+            s.model.mesh.blocks.iter().map(|b| b.len()).sum()
+        };
+        let refined = parse("kind = \"microplate-compression\"");
+        let unrefined = parse("kind = \"microplate-compression\"\nrefinement.levels = 0");
+        let tension = parse("kind = \"micropipette-tension\"");
+        assert_eq!(hex8(&unrefined), hex8(&tension));
+        assert!(hex8(&refined) > hex8(&unrefined) + 7, "{}", hex8(&refined));
+        let mut cell = SuspendedCell::default();
+        cell.params.mesh.core_divisions = 4;
+        cell.params.mesh.shell_layers = 2;
+        cell.params.mesh.outer_layers = 2;
+        let compression = Protocol::MicroplateCompression(MicroplateCompression::default());
+        let library = crate::experiment::CellModel::Suspended(cell)
+            .build_for(&compression)
+            .unwrap();
+        assert!(library.model.mesh.nodes == refined.model.mesh.nodes);
+        // Every node of the unrefined model (the FAs' and the filaments' among them) is a
+        // node of the refined one, where it was.
+        let key = |p: &[f64; 3]| p.map(f64::to_bits);
+        let refined_nodes: std::collections::HashSet<[u64; 3]> =
+            refined.model.mesh.nodes.iter().map(key).collect();
+        let moved = unrefined
+            .model
+            .mesh
+            .nodes
+            .iter()
+            .filter(|p| !refined_nodes.contains(&key(p)))
+            .count();
+        assert_eq!(
+            moved, 0,
+            "nodes of the unrefined cell moved by the refinement"
+        );
     }
 }

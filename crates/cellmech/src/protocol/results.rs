@@ -44,6 +44,13 @@ pub struct TestPoint {
     /// AFM: radius of the contact zone around the tip's axis (µm; see
     /// `RigidContact::contact_radius`); NaN for the other tests.
     pub contact_radius_um: f64,
+    /// Tension and compression: how far the two tools' forces are from balancing each
+    /// other, |F_moving + F_fixed| / max(|F_moving|, |F_fixed|, 1e-3 F_max) along the test
+    /// axis, F_max the largest force on the moving tool (0 when every force is zero). In equilibrium with free supports it is round-off; a viscously
+    /// stabilised increment shows the viscous forces' resultant here, which the
+    /// stabilisation's own norm-based measure understates
+    /// (docs/suspended-cell-validation.md). NaN for AFM (the base is clamped).
+    pub tool_force_imbalance: f64,
 }
 
 /// What a protocol run showed.
@@ -78,6 +85,11 @@ pub struct ProtocolResults {
     /// the mesh at the site, `refinement.element_size`). `None`: it never did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tip_passes_between_nodes_at_um: Option<f64>,
+    /// Tension and compression: the largest [`TestPoint::tool_force_imbalance`] over the test
+    /// curve and the displacement (µm) where it is; `None` for AFM. Above about 1e-3 the
+    /// curve has points that are not in equilibrium (viscously stabilised increments).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub largest_tool_force_imbalance: Option<(f64, f64)>,
     /// The first point of the test curve (its displacement, µm: elongation, plate travel or
     /// indentation) at which an element of the cell's continuum had folded over: a corner
     /// Jacobian ≤ 0 (`TestPoint::continuum_min_corner_jacobian_ratio`). From there the
@@ -118,6 +130,7 @@ pub fn write_protocol_results(
             moving_tool,
             contact_step,
             deformations,
+            ..
         } => (
             "microplate-compression",
             Holder::Tool(moving_tool.clone()),
@@ -162,6 +175,30 @@ pub fn write_protocol_results(
         .fold(vec![f64::NAN; step.len()], |acc, c| {
             acc.iter().zip(&c).map(|(a, b)| a.min(*b)).collect()
         });
+    // The other tool's force, to check the two balance (tension and compression).
+    let fixed_force = match plan {
+        ProtocolPlan::MicropipetteTension { fixed, .. } => {
+            Some(column(&fixed.force_column(cell.axis))?)
+        }
+        ProtocolPlan::MicroplateCompression { fixed_tool, .. } => {
+            Some(column(&fixed_tool.force_column(cell.axis))?)
+        }
+        _ => None,
+    };
+    // Near the unloaded reference state both forces are round-off: measured against a
+    // thousandth of the largest force instead.
+    let force_floor = 1e-3 * f.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let imbalance = |r: usize| match &fixed_force {
+        Some(g) => {
+            let larger = f[r].abs().max(g[r].abs()).max(force_floor);
+            if larger > 0.0 {
+                (f[r] + g[r]).abs() / larger
+            } else {
+                0.0
+            }
+        }
+        None => f64::NAN,
+    };
     // The tip's contact radius (AFM only).
     let contact_radius = match plan {
         ProtocolPlan::AfmIndentation { tip, .. } => Some(column(&tip.contact_radius_column())?),
@@ -192,6 +229,7 @@ pub fn write_protocol_results(
         last: None,
         apparent_modulus: None,
         tip_passes_between_nodes_at_um: None,
+        largest_tool_force_imbalance: None,
         continuum_folds_at_um: None,
         files: Vec::new(),
     };
@@ -228,6 +266,7 @@ pub fn write_protocol_results(
             nucleus_aspect_ratio: aspect[r],
             continuum_min_corner_jacobian_ratio: corner_ratio[r],
             contact_radius_um: contact_radius.as_ref().map_or(f64::NAN, |c| c[r]),
+            tool_force_imbalance: imbalance(r),
         }
     };
     let mut curve_rows = vec![reference];
@@ -265,6 +304,13 @@ pub fn write_protocol_results(
                 .map(|&r| point(r).displacement_um);
         }
     }
+    if fixed_force.is_some() {
+        results.largest_tool_force_imbalance = results
+            .curve
+            .iter()
+            .map(|p| (p.tool_force_imbalance, p.displacement_um))
+            .reduce(|a, b| if b.0 > a.0 { b } else { a });
+    }
     // `+ 0.0`: a fold already there at the reference point reads 0, not −0.
     results.continuum_folds_at_um = curve_rows
         .iter()
@@ -296,6 +342,8 @@ pub fn write_protocol_results(
     ];
     if contact_radius.is_some() {
         columns.push("contact_radius_um");
+    } else {
+        columns.push("tool_force_imbalance");
     }
     let mut out = CurveWriter::create(&dir.join(&csv), &columns).map_err(|e| e.to_string())?;
     for p in &results.curve {
@@ -308,7 +356,11 @@ pub fn write_protocol_results(
             p.nucleus_max_principal_log_strain_from_reference,
             p.nucleus_aspect_ratio,
             p.continuum_min_corner_jacobian_ratio,
-            p.contact_radius_um,
+            if contact_radius.is_some() {
+                p.contact_radius_um
+            } else {
+                p.tool_force_imbalance
+            },
         ];
         out.push_row(&row[..columns.len()])
             .map_err(|e| e.to_string())?;

@@ -88,7 +88,23 @@ pub(super) fn resolve_cell(
     } else {
         let values = read_section(root.get_ref(), &SUSPENDED_CELL, &["model"], &[])
             .map_err(|e| param_error(ctx, e))?;
-        SuspendedCell::from_values(&values).build()
+        let cell = SuspendedCell::from_values(&values);
+        // The mesh is refined under the protocol's tools (compression: the plates).
+        let protocol = match word(root.get_ref(), "protocol", "kind") {
+            Some((_, Some(kind))) => match Protocol::table(kind) {
+                Some(table) => {
+                    let values = read_section(root.get_ref(), table, &["kind"], &TABLES)
+                        .map_err(|e| param_error(ctx, e))?;
+                    Protocol::from_values(kind, &values)
+                }
+                None => None,
+            },
+            _ => None,
+        };
+        match protocol {
+            Some(p) => cell.for_protocol(&p).build(),
+            None => cell.build(),
+        }
     };
     built.map_err(|e| ctx.invalid(Some(section_span), "cell", e.to_string()))
 }

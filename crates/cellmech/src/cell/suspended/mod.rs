@@ -725,6 +725,20 @@ impl SuspendedCell {
         }
     }
 
+    /// The cell as `protocol` builds it: refined under the protocol's tools
+    /// ([`crate::protocol::Protocol::pole_refinement`]) unless its own
+    /// `refinement.levels` is above 0, which then replaces the protocol's.
+    pub fn for_protocol(&self, protocol: &crate::protocol::Protocol) -> std::borrow::Cow<'_, Self> {
+        match protocol.pole_refinement() {
+            Some(refinement) if self.params.pole_refinement.levels == 0 => {
+                let mut cell = self.clone();
+                cell.params.pole_refinement = refinement;
+                std::borrow::Cow::Owned(cell)
+            }
+            _ => std::borrow::Cow::Borrowed(self),
+        }
+    }
+
     /// Builds the cell: mesh, materials, structures, 3-2-1 supports, the nucleus shape
     /// probe, and the prestress step every protocol starts with.
     pub fn build(&self) -> Result<crate::cell::BuiltCell, CellModelError> {

@@ -550,7 +550,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
             D::Count(0),
             Bounds::new(0.0, true, super::layout::MAX_POLE_REFINEMENT_LEVELS as f64, true),
             "levels of octree refinement (hanging nodes tied) of every hex8 with a corner within `refinement.radius` of a pole of the test axis (±x); a radius larger than the cell refines the whole mesh while the FAs and filaments stay where they are (a mesh-convergence check that does not move the cytoskeleton); 0: none",
-            "choice: off by default; refining only the poles overshoots the 10 % compression force (+6 % against the whole mesh refined), [validation](suspended-cell-validation.md#mesh-convergence)",
+            "choice: off by default; the compression protocol refines under its plates (`[protocol] refinement.levels`, which this replaces when above 0); on the fast mesh refining only the poles overshot the 10 % compression force (+6 % against the whole mesh refined, [validation](suspended-cell-validation.md#mesh-convergence)), on the default mesh with the FA plaques it brings it within 1.4 % of the fine mesh ([validation](suspended-cell-validation.md#refined-under-the-plates-2026-12-07-stop-51))",
         ),
         p(
             "refinement.radius",
