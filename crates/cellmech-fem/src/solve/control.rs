@@ -19,6 +19,14 @@ pub struct Convergence {
     pub max_iterations: usize,
     /// Divergence: the increment is cut when ‖Rᵢ‖ exceeds this multiple of ‖R₀‖.
     pub divergence_ratio: f64,
+    /// Divergence after progress: the increment is cut when, within a round (between
+    /// augmentations), the residual rises above both this multiple of the lowest ‖R‖ the
+    /// round reached and the increment's first ‖R₀‖ (0 disables it). A Newton or BFGS
+    /// iteration that close to equilibrium that throws the state that far off does not come
+    /// back: measured on the compression refined under the plates, one such attempt ran 11
+    /// more iterations (11 indefinite factorisations, up to 146 negative pivots) before
+    /// `max_iterations` cut it (docs/performance.md).
+    pub rebound_ratio: f64,
     /// Most augmentation rounds (contact multipliers, active sets) per increment.
     pub max_augmentations: usize,
     /// Line search is tried when |R(u+δ)·δ| > this fraction of |R(u)·δ| (0 disables it).
@@ -102,6 +110,7 @@ impl Default for Convergence {
             energy_tolerance: 1e-12,
             max_iterations: 25,
             divergence_ratio: 1e6,
+            rebound_ratio: 1e3,
             max_augmentations: 50,
             line_search_threshold: 0.9,
             method: IterationMethod::Newton,

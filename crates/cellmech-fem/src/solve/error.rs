@@ -20,6 +20,17 @@ pub enum FailureReason {
         /// ‖Rᵢ‖/‖R₀‖.
         ratio: f64,
     },
+    /// The residual rebounded: after falling to its lowest in the round it rose above both
+    /// [`crate::solve::Convergence::rebound_ratio`] times that and the increment's first one.
+    #[error(
+        "Newton rebounded at iteration {iteration}: |R| rose {ratio:.3e}-fold above its lowest"
+    )]
+    Rebounded {
+        /// Iteration at which it was detected.
+        iteration: usize,
+        /// ‖Rᵢ‖ over the round's lowest ‖R‖.
+        ratio: f64,
+    },
     /// The iteration limit was reached before convergence.
     #[error("no convergence in {iterations} iterations: |R|/scale = {residual:.3e}, energy ratio = {energy:.3e}")]
     MaxIterations {

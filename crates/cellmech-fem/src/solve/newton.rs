@@ -132,6 +132,8 @@ impl Problem {
         let mut step_length = 1.0;
         let mut augmentations = 0;
         let mut round_start = 0;
+        // The lowest residual (force units) of the current round.
+        let mut round_best = f64::INFINITY;
         // Whether the last correction was a chord step (full Newton near convergence), and
         // the residual ratio before it.
         let mut chord = false;
@@ -194,6 +196,11 @@ impl Problem {
                 || correction <= COORDINATE_ROUND_OFF * self.length_scale
                 || (residual_ratio <= conv.residual_tolerance
                     && energy_ratio <= conv.energy_tolerance);
+            let residual_force = residual_ratio * scale;
+            let rebounded = conv.rebound_ratio > 0.0
+                && residual_force > r0
+                && residual_force > conv.rebound_ratio * round_best;
+            round_best = round_best.min(residual_force);
             if converged {
                 match self.augment_terms() {
                     None => return Ok(iteration + 1),
@@ -213,6 +220,7 @@ impl Problem {
                         }
                         self.evaluate(quasi_newton == 0)?;
                         round_start = iteration;
+                        round_best = f64::INFINITY;
                         // Quasi-Newton keeps its factorisation and updates when only
                         // multipliers changed (the tangent did not).
                         reform = reform || !multipliers_only;
@@ -222,6 +230,11 @@ impl Problem {
                 return Err(FailureReason::Diverged {
                     iteration,
                     ratio: residual_ratio * scale / r0,
+                });
+            } else if rebounded {
+                return Err(FailureReason::Rebounded {
+                    iteration,
+                    ratio: residual_force / round_best,
                 });
             } else if iteration - round_start >= conv.max_iterations {
                 return Err(FailureReason::MaxIterations {

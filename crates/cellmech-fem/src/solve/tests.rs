@@ -789,3 +789,91 @@ fn a_bfgs_increment_within_ten_iterations_grows_the_next() {
     assert!(between_easy_limits > 0, "no increment took 6-10 iterations");
     assert!((1.0 + p.u()[3] - 1.04).abs() < 1e-7 && (p.u()[4] - 0.78).abs() < 1e-7);
 }
+
+/// One DOF on a saturating support, force atan(u): Newton from beyond |u| ≈ 1.39 diverges
+/// with a bounded residual (below π/2 + the load), so only `max_iterations` ends it. The
+/// first tangent asked for within `trap` of `root` is scaled by 1e-5: a correction that
+/// throws a nearly converged state far away, as a lost quasi-Newton tangent did in the
+/// refined cell compression (docs/performance.md).
+struct SaturatingSupportWithOneBadTangent {
+    root: f64,
+    trap: f64,
+    sprung: std::sync::atomic::AtomicBool,
+}
+
+impl Term for SaturatingSupportWithOneBadTangent {
+    fn name(&self) -> &str {
+        "saturating"
+    }
+    fn num_elements(&self) -> usize {
+        1
+    }
+    fn element_dofs(&self, _e: usize, _m: &DofMap, dofs: &mut [usize]) -> usize {
+        dofs[0] = 0;
+        1
+    }
+    fn evaluate(
+        &self,
+        _e: usize,
+        u: &[f64],
+        r: &mut [f64],
+        k: Option<&mut [f64]>,
+    ) -> Result<f64, crate::element::KernelError> {
+        use std::sync::atomic::Ordering;
+        r[0] = u[0].atan();
+        if let Some(k) = k {
+            k[0] = 1.0 / (1.0 + u[0] * u[0]);
+            let near = (u[0] - self.root).abs() < self.trap && (u[0] - self.root).abs() > 1e-6;
+            if near && !self.sprung.swap(true, Ordering::Relaxed) {
+                k[0] *= 1e-5;
+            }
+        }
+        Ok(u[0] * u[0].atan() - 0.5 * (1.0 + u[0] * u[0]).ln())
+    }
+}
+
+#[test]
+fn an_increment_whose_residual_rebounds_near_equilibrium_is_cut_at_once() {
+    // Load 0.5 on atan(u): equilibrium at u = tan(0.5). Newton's third correction uses the
+    // bad tangent and lands near u = 90, where atan saturates: the residual rises from
+    // about 1e-3 to 1.06, above the first one (0.5). Without the rebound criterion the
+    // attempt then wanders (|R| stays below 2.1, far from the 1e6-fold divergence limit)
+    // until its corrections overflow (10 iterations); with it the attempt is cut at that
+    // iteration. Both retry at half the increment and end at the same equilibrium.
+    let run = |rebound_ratio: f64| {
+        let term = SaturatingSupportWithOneBadTangent {
+            root: 0.5f64.tan(),
+            trap: 1e-2,
+            sprung: std::sync::atomic::AtomicBool::new(false),
+        };
+        let terms: Vec<Box<dyn Term>> = vec![Box::new(term)];
+        let mut p = Problem::new(
+            DofMap::with_counts(&[1]),
+            terms,
+            Box::new(DenseSolver::default()),
+        )
+        .unwrap();
+        let mut step = Step::new("saturating");
+        step.loads = vec![NodalLoad { dof: 0, value: 0.5 }];
+        step.control.initial_increment = 1.0;
+        step.control.max_increment = 1.0;
+        step.control.convergence.chord_near_convergence = false;
+        step.control.convergence.rebound_ratio = rebound_ratio;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        let converged: usize = rec.increments.iter().map(|i| i.1).sum();
+        let failed = rec.iterations.len() - converged;
+        (p.u()[0], rec.cutbacks, failed)
+    };
+    let (u, cutbacks, failed) = run(Convergence::default().rebound_ratio);
+    let (u_off, cutbacks_off, failed_off) = run(0.0);
+    for x in [u, u_off] {
+        assert!((x - 0.5f64.tan()).abs() < 1e-9, "{x}");
+    }
+    assert_eq!((cutbacks, cutbacks_off), (1, 1));
+    assert!(failed <= 4, "the failed attempt took {failed} iterations");
+    assert!(
+        failed_off >= failed + 5,
+        "without the criterion: {failed_off} iterations, with it {failed}"
+    );
+}
