@@ -185,12 +185,15 @@ fn chord_steps_near_convergence_reach_the_same_equilibrium_with_fewer_factorisat
     assert!(last.residual_ratio <= tolerance, "{last:?}");
 }
 
-/// One DOF on a softening support: force sin(u), so no equilibrium exists beyond 1 nN.
-struct SofteningSupport;
+/// One DOF on a nonlinear support: `law(u, tangent wanted)` gives (force, stiffness,
+/// energy).
+struct OneDofSupport<L: Fn(f64, bool) -> (f64, f64, f64) + Send + Sync> {
+    law: L,
+}
 
-impl Term for SofteningSupport {
+impl<L: Fn(f64, bool) -> (f64, f64, f64) + Send + Sync> Term for OneDofSupport<L> {
     fn name(&self) -> &str {
-        "softening"
+        "support"
     }
     fn num_elements(&self) -> usize {
         1
@@ -206,17 +209,25 @@ impl Term for SofteningSupport {
         r: &mut [f64],
         k: Option<&mut [f64]>,
     ) -> Result<f64, crate::element::KernelError> {
-        r[0] = u[0].sin();
+        let (force, stiffness, energy) = (self.law)(u[0], k.is_some());
+        r[0] = force;
         if let Some(k) = k {
-            k[0] = u[0].cos();
+            k[0] = stiffness;
         }
-        Ok(1.0 - u[0].cos())
+        Ok(energy)
     }
+}
+
+/// One DOF on a softening support: force sin(u), so no equilibrium exists beyond 1 nN.
+fn softening_support() -> Box<dyn Term> {
+    Box::new(OneDofSupport {
+        law: |u: f64, _| (u.sin(), u.cos(), 1.0 - u.cos()),
+    })
 }
 
 #[test]
 fn past_a_limit_point_load_control_stops_cleanly_and_keeps_converged_increments() {
-    let terms: Vec<Box<dyn Term>> = vec![Box::new(SofteningSupport)];
+    let terms: Vec<Box<dyn Term>> = vec![softening_support()];
     let dofs = DofMap::with_counts(&[1]);
     let mut p = Problem::new(dofs, terms, Box::new(DenseSolver::default())).unwrap();
     let mut step = Step::new("beyond-limit");
@@ -791,45 +802,22 @@ fn a_bfgs_increment_within_ten_iterations_grows_the_next() {
 }
 
 /// One DOF on a saturating support, force atan(u): Newton from beyond |u| ≈ 1.39 diverges
-/// with a bounded residual (below π/2 + the load), so only `max_iterations` ends it. The
-/// first tangent asked for within `trap` of `root` is scaled by 1e-5: a correction that
-/// throws a nearly converged state far away, as a lost quasi-Newton tangent did in the
-/// refined cell compression (docs/performance.md).
-struct SaturatingSupportWithOneBadTangent {
-    root: f64,
-    trap: f64,
-    sprung: std::sync::atomic::AtomicBool,
-}
-
-impl Term for SaturatingSupportWithOneBadTangent {
-    fn name(&self) -> &str {
-        "saturating"
-    }
-    fn num_elements(&self) -> usize {
-        1
-    }
-    fn element_dofs(&self, _e: usize, _m: &DofMap, dofs: &mut [usize]) -> usize {
-        dofs[0] = 0;
-        1
-    }
-    fn evaluate(
-        &self,
-        _e: usize,
-        u: &[f64],
-        r: &mut [f64],
-        k: Option<&mut [f64]>,
-    ) -> Result<f64, crate::element::KernelError> {
-        use std::sync::atomic::Ordering;
-        r[0] = u[0].atan();
-        if let Some(k) = k {
-            k[0] = 1.0 / (1.0 + u[0] * u[0]);
-            let near = (u[0] - self.root).abs() < self.trap && (u[0] - self.root).abs() > 1e-6;
-            if near && !self.sprung.swap(true, Ordering::Relaxed) {
-                k[0] *= 1e-5;
+/// with a bounded residual (below π/2 + the load), so only `max_iterations` or an overflow
+/// ends it. The first tangent asked for within `trap` of `root` is scaled by 1e-5: a
+/// correction that throws a nearly converged state far away, as a lost quasi-Newton
+/// tangent did in the refined cell compression (docs/performance.md).
+fn saturating_support_with_one_bad_tangent(root: f64, trap: f64) -> Box<dyn Term> {
+    let sprung = std::sync::atomic::AtomicBool::new(false);
+    Box::new(OneDofSupport {
+        law: move |u: f64, tangent: bool| {
+            let mut k = 1.0 / (1.0 + u * u);
+            let near = (u - root).abs() < trap && (u - root).abs() > 1e-6;
+            if tangent && near && !sprung.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                k *= 1e-5;
             }
-        }
-        Ok(u[0] * u[0].atan() - 0.5 * (1.0 + u[0] * u[0]).ln())
-    }
+            (u.atan(), k, u * u.atan() - 0.5 * (1.0 + u * u).ln())
+        },
+    })
 }
 
 #[test]
@@ -841,12 +829,7 @@ fn an_increment_whose_residual_rebounds_near_equilibrium_is_cut_at_once() {
     // until its corrections overflow (10 iterations); with it the attempt is cut at that
     // iteration. Both retry at half the increment and end at the same equilibrium.
     let run = |rebound_ratio: f64| {
-        let term = SaturatingSupportWithOneBadTangent {
-            root: 0.5f64.tan(),
-            trap: 1e-2,
-            sprung: std::sync::atomic::AtomicBool::new(false),
-        };
-        let terms: Vec<Box<dyn Term>> = vec![Box::new(term)];
+        let terms = vec![saturating_support_with_one_bad_tangent(0.5f64.tan(), 1e-2)];
         let mut p = Problem::new(
             DofMap::with_counts(&[1]),
             terms,
