@@ -40,6 +40,8 @@ pub struct StudyRow {
     pub stabilized_increments: usize,
     /// Largest fraction of a step's strain energy the stabilisation dissipated.
     pub dissipated_fraction: f64,
+    /// Largest imbalance of the two tools' forces over the curve (tension, compression).
+    pub tool_force_imbalance: Option<f64>,
     /// Wall time (s).
     pub wall_time_s: f64,
     /// The first displacement (µm) from which the mesh no longer represents the model:
@@ -83,6 +85,7 @@ pub fn rows(spec: &StudySpec, cases: &[Case], records: &[Option<CaseRecord>]) ->
                 iterations: record.map_or(0, |r| r.iterations),
                 stabilized_increments: record.map_or(0, |r| r.stabilized_increments),
                 dissipated_fraction: record.map_or(0.0, |r| r.dissipated_fraction),
+                tool_force_imbalance: record.and_then(|r| r.tool_force_imbalance),
                 wall_time_s: record.map_or(0.0, |r| r.wall_time_s),
                 mesh_invalid_from_um: record.and_then(|r| {
                     [r.folds_at_um, r.tip_passes_between_nodes_at_um]
@@ -248,7 +251,7 @@ pub fn write_report(
     for (i, a) in spec.axes.iter().enumerate() {
         let _ = write!(csv, ",axis{i}_{}", a.kind);
     }
-    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,stabilized_increments,dissipated_fraction,wall_time_s,mesh_invalid_from_um,error\n");
+    csv.push_str(",status,displacement_um,force_nN,force_over_control,control,nucleus_max_log_strain,nucleus_max_log_strain_from_reference,mts_in_tension,mts_straight,afs_in_tension,ifs_in_tension,iterations,stabilized_increments,dissipated_fraction,tool_force_imbalance,wall_time_s,mesh_invalid_from_um,error\n");
     for r in &rows {
         csv.push_str(&csv_field(&r.case));
         for l in &r.labels {
@@ -257,7 +260,7 @@ pub fn write_report(
         }
         let _ = writeln!(
             csv,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.2},{},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{},{:.2},{},{}",
             r.status,
             opt(r.displacement_um, 4),
             opt(r.force_nn, 6),
@@ -272,6 +275,8 @@ pub fn write_report(
             r.iterations,
             r.stabilized_increments,
             r.dissipated_fraction,
+            r.tool_force_imbalance
+                .map_or(String::new(), |v| format!("{v:.2e}")),
             r.wall_time_s,
             opt(r.mesh_invalid_from_um, 4),
             r.error.as_deref().map(csv_field).unwrap_or_default()
@@ -581,6 +586,7 @@ mod tests {
             factorizations: 1,
             stabilized_increments: 0,
             dissipated_fraction: 0.0,
+            tool_force_imbalance: None,
             folds_at_um: None,
             tip_passes_between_nodes_at_um: None,
             wall_time_s: 0.5,
@@ -732,6 +738,7 @@ mod tests {
         let (md, csv) = report_with_changed_case("stab", |r| {
             r.stabilized_increments = 25;
             r.dissipated_fraction = 0.68;
+            r.tool_force_imbalance = Some(0.47);
         });
         assert!(
             md.contains("## Cases whose path needed viscous stabilisation"),
@@ -743,11 +750,18 @@ mod tests {
         );
         let section = &md[md.find("## Cases whose path").unwrap()..];
         assert!(!section.contains("`control`"), "{md}");
-        for (case, v) in csv_values(&csv, &["stabilized_increments", "dissipated_fraction"]) {
+        for (case, v) in csv_values(
+            &csv,
+            &[
+                "stabilized_increments",
+                "dissipated_fraction",
+                "tool_force_imbalance",
+            ],
+        ) {
             let want = if case == "control" {
-                ["0", "0.0000"]
+                ["0", "0.0000", ""]
             } else {
-                ["25", "0.6800"]
+                ["25", "0.6800", "4.70e-1"]
             };
             assert_eq!(v, want, "{case}");
         }

@@ -82,6 +82,11 @@ pub struct CaseRecord {
     /// was carried by the viscosity.
     #[serde(default)]
     pub dissipated_fraction: f64,
+    /// Tension and compression: the largest imbalance of the two tools' forces over the
+    /// test curve (`ProtocolResults::largest_tool_force_imbalance`): round-off in
+    /// equilibrium, the viscous forces' resultant where increments were stabilised.
+    #[serde(default)]
+    pub tool_force_imbalance: Option<f64>,
     /// The first point at which an element of the cell's continuum had folded over
     /// (`ProtocolResults::continuum_folds_at_um`, µm of the test's displacement).
     #[serde(default)]
@@ -295,6 +300,7 @@ pub fn run_case_in(
                 .filter_map(|s| s.stabilization.map(|st| st.dissipated_fraction))
                 .fold(0.0, f64::max)
         }),
+        tool_force_imbalance: protocol.and_then(|p| p.largest_tool_force_imbalance.map(|x| x.0)),
         folds_at_um: protocol.and_then(|p| p.continuum_folds_at_um),
         tip_passes_between_nodes_at_um: protocol.and_then(|p| p.tip_passes_between_nodes_at_um),
         wall_time_s: start.elapsed().as_secs_f64(),
