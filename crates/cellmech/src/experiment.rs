@@ -50,7 +50,7 @@ impl CellModel {
 
     /// Builds the cell for `protocol`: an adherent cell is refined at the protocol's
     /// indentation site, a suspended one under the protocol's tools
-    /// ([`SuspendedCell::for_protocol`]).
+    /// ([`SuspendedCell::with_tool_refinement`]).
     pub fn build_for(&self, protocol: &Protocol) -> Result<BuiltCell, CellModelError> {
         match (self, protocol.indentation_site()) {
             (CellModel::Adherent(c), Some(site)) => {
@@ -58,7 +58,9 @@ impl CellModel {
                 c.site = Some(site);
                 c.build()
             }
-            (CellModel::Suspended(c), _) => c.for_protocol(protocol).build(),
+            (CellModel::Suspended(c), _) => {
+                c.with_tool_refinement(protocol.pole_refinement()).build()
+            }
             _ => self.build(),
         }
     }

@@ -756,18 +756,23 @@ mod tests {
         };
         assert_eq!(compression.pole_refinement(), Some(under_plates));
         assert_eq!(
-            cell.for_protocol(&compression).params.pole_refinement,
+            cell.with_tool_refinement(compression.pole_refinement())
+                .params
+                .pole_refinement,
             under_plates
         );
         assert_eq!(tension.pole_refinement(), None);
-        assert_eq!(*cell.for_protocol(&tension), cell);
+        assert_eq!(*cell.with_tool_refinement(tension.pole_refinement()), cell);
         // The cell's own refinement (a convergence check) replaces the protocol's.
         let mut own = cell.clone();
         own.params.pole_refinement = PoleRefinement {
             levels: 1,
             radius: 100.0,
         };
-        assert_eq!(*own.for_protocol(&compression), own);
+        assert_eq!(
+            *own.with_tool_refinement(compression.pole_refinement()),
+            own
+        );
         // `refinement.levels = 0` in [protocol]: none.
         let table = Protocol::table("microplate-compression").unwrap();
         let mut values = crate::param::ParamValues::defaults(table);
@@ -780,7 +785,10 @@ mod tests {
             .unwrap();
         let unrefined = Protocol::from_values("microplate-compression", &values).unwrap();
         assert_eq!(unrefined.pole_refinement(), None);
-        assert_eq!(*cell.for_protocol(&unrefined), cell);
+        assert_eq!(
+            *cell.with_tool_refinement(unrefined.pole_refinement()),
+            cell
+        );
     }
 
     #[test]

@@ -102,7 +102,7 @@ pub(super) fn resolve_cell(
             _ => None,
         };
         match protocol {
-            Some(p) => cell.for_protocol(&p).build(),
+            Some(p) => cell.with_tool_refinement(p.pole_refinement()).build(),
             None => cell.build(),
         }
     };

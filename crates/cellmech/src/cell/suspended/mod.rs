@@ -725,11 +725,14 @@ impl SuspendedCell {
         }
     }
 
-    /// The cell as `protocol` builds it: refined under the protocol's tools
-    /// ([`crate::protocol::Protocol::pole_refinement`]) unless its own
-    /// `refinement.levels` is above 0, which then replaces the protocol's.
-    pub fn for_protocol(&self, protocol: &crate::protocol::Protocol) -> std::borrow::Cow<'_, Self> {
-        match protocol.pole_refinement() {
+    /// The cell refined under a protocol's tools (`refinement`, from
+    /// `crate::protocol::Protocol::pole_refinement`) unless its own `refinement.levels` is
+    /// above 0, which then replaces the protocol's.
+    pub fn with_tool_refinement(
+        &self,
+        refinement: Option<PoleRefinement>,
+    ) -> std::borrow::Cow<'_, Self> {
+        match refinement {
             Some(refinement) if self.params.pole_refinement.levels == 0 => {
                 let mut cell = self.clone();
                 cell.params.pole_refinement = refinement;
