@@ -682,6 +682,15 @@ impl LinearSolver for FaerSparseSolver {
     }
 
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
+        self.solve_to_in_place(rhs, MIXED_SOLVE_TOLERANCE)
+    }
+
+    /// Mixed precision: the conjugate gradients stop at `tolerance` of the solution (at
+    /// least [`MIXED_SOLVE_TOLERANCE`]); they run at least one iteration, so a factor that
+    /// does not resolve the matrix still breaks them down or runs them out and falls back.
+    /// Double-precision factors solve in full.
+    fn solve_to_in_place(&mut self, rhs: &mut [f64], tolerance: f64) -> Result<(), LinSolveError> {
+        let tolerance = tolerance.max(MIXED_SOLVE_TOLERANCE);
         let a = self
             .analysis
             .as_ref()
@@ -696,7 +705,7 @@ impl LinearSolver for FaerSparseSolver {
         match self.numeric {
             Some(Numeric::Llt) => return self.raw_solve(rhs),
             Some(Numeric::Llt32) => {
-                if self.refined_single_solve(rhs)? {
+                if self.refined_single_solve(rhs, tolerance)? {
                     return Ok(());
                 }
                 // The conjugate gradients did not get there: double precision from the saved
@@ -827,14 +836,17 @@ impl FaerSparseSolver {
     }
 
     /// Solves by conjugate gradients in double precision preconditioned with the
-    /// single-precision factor ([`pcg_single_solve`]) to [`MIXED_SOLVE_TOLERANCE`]. False
+    /// single-precision factor ([`pcg_single_solve`]) to `tolerance` of the solution. False
     /// (with `rhs` garbage, the right-hand side kept in `refine_b`) when they break down or
     /// the iterations run out.
-    fn refined_single_solve(&mut self, rhs: &mut [f64]) -> Result<bool, LinSolveError> {
+    fn refined_single_solve(
+        &mut self,
+        rhs: &mut [f64],
+        tolerance: f64,
+    ) -> Result<bool, LinSolveError> {
         let max_iterations = self.mixed_max_iterations;
         let (par, a) = self.solve_setup()?;
-        let (steps, resolved) =
-            pcg_single_solve(a, rhs, par, MIXED_SOLVE_TOLERANCE, max_iterations);
+        let (steps, resolved) = pcg_single_solve(a, rhs, par, tolerance, max_iterations);
         self.stats.refinement_steps += steps;
         Ok(resolved)
     }

@@ -74,6 +74,16 @@ pub trait LinearSolver: Send {
     fn solve_approximately_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
         self.solve_in_place(rhs)
     }
+    /// Like [`LinearSolver::solve_in_place`], to a relative accuracy of the solution of
+    /// about `tolerance` (for a direction whose own approximation is of that size: the
+    /// first correction of a quasi-Newton round). A solver that refines its solves may stop
+    /// refining there; it never returns one less accurate than
+    /// [`LinearSolver::solve_approximately_in_place`], and it still checks that its factor
+    /// resolves the matrix. The default is the full solve.
+    fn solve_to_in_place(&mut self, rhs: &mut [f64], tolerance: f64) -> Result<(), LinSolveError> {
+        let _ = tolerance;
+        self.solve_in_place(rhs)
+    }
     /// What mixed precision did, for a solver that has it.
     fn mixed_precision_stats(&self) -> Option<MixedPrecisionStats> {
         None

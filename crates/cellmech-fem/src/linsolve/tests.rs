@@ -595,3 +595,50 @@ fn the_factor_size_is_the_fill_of_the_ordering_and_only_a_sparse_solver_reports_
     dense.analyze(&pattern).expect("analyze");
     assert_eq!(dense.factor_size(), None);
 }
+
+#[test]
+fn a_solve_to_a_looser_tolerance_stops_refining_there_and_still_falls_back() {
+    // K/G = 1e6: the single-precision solve alone is off by ~2e-1.
+    let m = hex_elasticity(8, 7, 6, 3.0, 0.4999995);
+    let mut double = FaerSparseSolver::new(1);
+    double.analyze(&m.pattern).expect("analyze");
+    let (_, _, x64) = solve(&mut double, &m);
+    let b = rhs(m.pattern.n);
+    let mut errors = Vec::new();
+    let mut steps = Vec::new();
+    for tolerance in [MIXED_SOLVE_TOLERANCE, 1e-2] {
+        let mut mixed = FaerSparseSolver::new(1).with_mixed_precision(true);
+        mixed.analyze(&m.pattern).expect("analyze");
+        mixed.factorize(&m.values).expect("factorize");
+        let mut x = b.clone();
+        mixed.solve_to_in_place(&mut x, tolerance).expect("solve");
+        let stats = mixed.mixed_precision_stats();
+        assert_eq!((stats.single_factorizations, stats.fallbacks), (1, 0));
+        errors.push(relative_distance(&x, &x64));
+        steps.push(stats.refinement_steps);
+    }
+    // The loose solve is within its tolerance, and stops earlier than the full one (whose
+    // error is below the full tolerance).
+    assert!(errors[0] <= MIXED_SOLVE_TOLERANCE, "{errors:?}");
+    assert!(errors[1] <= 1e-2 && errors[1] > errors[0], "{errors:?}");
+    assert!(steps[1] >= 1 && steps[1] < steps[0], "{steps:?}");
+    // A tolerance tighter than the solver's own is the full solve, bit for bit.
+    let mut mixed = FaerSparseSolver::new(1).with_mixed_precision(true);
+    mixed.analyze(&m.pattern).expect("analyze");
+    mixed.factorize(&m.values).expect("factorize");
+    let (mut tight, mut full) = (b.clone(), b.clone());
+    mixed.solve_to_in_place(&mut tight, 1e-12).expect("solve");
+    mixed.solve_in_place(&mut full).expect("solve");
+    assert_eq!(tight, full);
+    // CG that cannot reach even the loose tolerance within its iterations still falls
+    // back to double precision and returns the double-precision solve.
+    let mut short = FaerSparseSolver::new(1)
+        .with_mixed_precision(true)
+        .with_mixed_max_iterations(1);
+    short.analyze(&m.pattern).expect("analyze");
+    short.factorize(&m.values).expect("factorize");
+    let mut x = b.clone();
+    short.solve_to_in_place(&mut x, 1e-2).expect("solve");
+    assert_eq!(short.mixed_precision_stats().fallbacks, 1);
+    assert_eq!(x, x64, "the fallback is the double-precision solve");
+}

@@ -68,6 +68,16 @@ pub struct Convergence {
 /// elements under a tool the way it can at the start of an increment.
 pub const NEAR_EQUILIBRIUM: f64 = 1e-5;
 
+/// Quasi-Newton (BFGS) solves the first correction after each factorisation to this
+/// fraction of its size ([`crate::linsolve::LinearSolver::solve_to_in_place`]), not to the
+/// linear solver's full accuracy: the corrections after it come from the same factor
+/// without refinement (a single-precision factor's solve alone is off by 2e-2 to 0.7 on the
+/// cell tangents) and the update pairs, so a more accurate first one buys nothing. Measured
+/// on the default compression (88 factorisations): the same 397 Newton iterations and
+/// forces as with full accuracy, 294 conjugate-gradient iterations of the mixed-precision
+/// solves instead of 552 (docs/performance.md, "Quasi-Newton's reform solves").
+pub const QUASI_NEWTON_SOLVE_TOLERANCE: f64 = 1e-2;
+
 /// A chord step is tried when the residual ratio is at most this multiple of the
 /// residual tolerance ([`Convergence::chord_near_convergence`]).
 pub const CHORD_WINDOW: f64 = 1e3;

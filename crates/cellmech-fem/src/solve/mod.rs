@@ -22,6 +22,7 @@ mod step;
 pub use control::{
     Activation, Convergence, Damping, Extrapolation, IterationMethod, Stabilization, StepControl,
     CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW, NEAR_EQUILIBRIUM, ON_DIFFICULTY_FAILURES,
+    QUASI_NEWTON_SOLVE_TOLERANCE,
 };
 pub use error::{FailureReason, SolveError};
 pub use problem::{NullObserver, Observer, Problem, Timings, JUMP_WIDTH};

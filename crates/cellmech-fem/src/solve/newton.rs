@@ -8,7 +8,7 @@
 
 use super::control::{
     Convergence, IterationMethod, StepControl, CHORD_CONTINUATION, CHORD_CONTRACTION, CHORD_WINDOW,
-    NEAR_EQUILIBRIUM,
+    NEAR_EQUILIBRIUM, QUASI_NEWTON_SOLVE_TOLERANCE,
 };
 use super::error::FailureReason;
 use super::norms::norm_where;
@@ -85,6 +85,20 @@ impl Problem {
             let tolerance = conv.residual_tolerance * self.work.scale;
             self.relax_blocks(tolerance);
         }
+        // Factorisations counted at the last report: a report whose count moved describes a
+        // correction solved with a fresh factorisation.
+        let mut factorizations_reported = self.timings.factorizations;
+        let quasi_newton = match conv.method {
+            IterationMethod::Newton => 0,
+            IterationMethod::Bfgs { max_updates } => max_updates,
+        };
+        // How accurately a fresh factorisation's correction is solved: in full for Newton,
+        // to the quasi-Newton's own accuracy for BFGS.
+        let direction_tolerance = if quasi_newton > 0 {
+            QUASI_NEWTON_SOLVE_TOLERANCE
+        } else {
+            0.0
+        };
         // Iteration 0: linearise at the converged start state.
         self.assemble_full(true)?;
         self.set_first_rhs();
@@ -94,14 +108,14 @@ impl Problem {
             Some(true) => self.calibrate_stabilizer()?,
             Some(false) => {
                 // Waiting for difficulty: calibrate on the real, undamped predictor.
-                self.factorize_and_solve()?;
+                self.factorize_and_solve(direction_tolerance)?;
                 let energy = self.correction_work();
                 if let Some(st) = &mut self.stabilizer {
                     st.calibrate(Some(&self.work.delta), energy);
                     st.set_rate(0.0);
                 }
             }
-            None => self.factorize_and_solve()?,
+            None => self.factorize_and_solve(direction_tolerance)?,
         }
         // The energy criterion's reference: the work of the increment's first correction, or
         // of a later round's first correction (after the terms changed) when that is larger.
@@ -110,10 +124,6 @@ impl Problem {
         // against the tiny start, the round's energy ratio had to fall 12 orders below its
         // own first correction's, long after the residual criterion was met.
         let mut energy_reference = self.correction_work();
-        let quasi_newton = match conv.method {
-            IterationMethod::Newton => 0,
-            IterationMethod::Bfgs { max_updates } => max_updates,
-        };
         // Quasi-Newton state: the residual before the last step, its norm, and whether the
         // tangent must be reformed at the next iteration.
         self.work.updates = 0;
@@ -181,7 +191,9 @@ impl Problem {
                 line_search: step_length,
                 correction_norm: self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt(),
                 chord,
+                reformed: self.timings.factorizations > factorizations_reported,
             };
+            factorizations_reported = self.timings.factorizations;
             self.work.history.push(residual_ratio);
             observer.on_iteration(&report);
             if !residual_ratio.is_finite() {
@@ -280,7 +292,7 @@ impl Problem {
                     self.quasi_newton_direction()?;
                     self.timings.chord_steps += 1;
                 } else {
-                    self.factorize_and_solve()?;
+                    self.factorize_and_solve(direction_tolerance)?;
                 }
                 if augmentations > 0 && iteration == round_start {
                     energy_reference = energy_reference.max(self.correction_work());
@@ -300,7 +312,7 @@ impl Problem {
                 || (!jumped && residual_norm > previous_norm)
             {
                 self.assemble_full(false)?;
-                self.factorize_and_solve()?;
+                self.factorize_and_solve(direction_tolerance)?;
                 self.work.updates = 0;
                 reform = false;
             } else {
@@ -313,7 +325,7 @@ impl Problem {
                 let length = self.work.delta.iter().map(|x| x * x).sum::<f64>().sqrt();
                 if !jumped && !(length <= MAX_QUASI_NEWTON_GROWTH * last_step) {
                     self.assemble_full(false)?;
-                    self.factorize_and_solve()?;
+                    self.factorize_and_solve(direction_tolerance)?;
                     self.work.updates = 0;
                 }
             }
@@ -531,14 +543,16 @@ impl Problem {
         (residual_ratio, energy_ratio, scale)
     }
 
-    fn factorize_and_solve(&mut self) -> Result<(), FailureReason> {
+    /// Factorises the assembled tangent and solves for the correction, to `tolerance` of
+    /// its size ([`LinearSolver::solve_to_in_place`]; 0: in full).
+    fn factorize_and_solve(&mut self, tolerance: f64) -> Result<(), FailureReason> {
         let (solver, work) = (&mut self.solver, &mut self.work);
         let (factor, start, factored, solved) = self.pool.install(|| {
             let start = Instant::now();
             let factor = solver.factorize(&work.values)?;
             let factored = Instant::now();
             work.delta.copy_from_slice(&work.rhs);
-            solver.solve_in_place(&mut work.delta)?;
+            solver.solve_to_in_place(&mut work.delta, tolerance)?;
             Ok::<_, FailureReason>((factor, start, factored, Instant::now()))
         })?;
         self.last_factor = Some(factor);
@@ -606,7 +620,7 @@ impl Problem {
     /// increment (see `solve::stabilize`), then solves that predictor again with the
     /// viscosity in the tangent.
     fn calibrate_stabilizer(&mut self) -> Result<(), FailureReason> {
-        let undamped = self.factorize_and_solve();
+        let undamped = self.factorize_and_solve(0.0);
         let energy = self.correction_work();
         let pattern = solver_pattern(&self.condensation, &self.assembler);
         let Some(st) = &mut self.stabilizer else {
@@ -621,7 +635,7 @@ impl Problem {
             self.assemble_full(true)?;
             self.set_first_rhs();
         }
-        self.factorize_and_solve()
+        self.factorize_and_solve(0.0)
     }
 
     /// The right-hand side of an increment's first solve: the prescribed DOFs' remaining
@@ -710,6 +724,11 @@ impl Problem {
     ) -> Result<f64, FailureReason> {
         let g0 = self.projection(&self.residual);
         let longest = self.rotation_step_limit(conv.max_rotation_step);
+        if let Some(tolerance) = relax {
+            if self.relaxed_full_step(conv, with_tangent, tolerance, g0, longest) {
+                return Ok(longest);
+            }
+        }
         let mut s = longest;
         let mut g1 = loop {
             match self.trial_projection(s) {
@@ -767,6 +786,40 @@ impl Problem {
         }
         self.evaluate(with_tangent)?;
         Ok(s)
+    }
+
+    /// With relaxation blocks, the full step is tried first where it will end: `u + s δ`
+    /// with the blocks relaxed there, evaluated once (tangent too when asked). It is kept
+    /// when the projection `δ·R` there passes the line search's test (or the line search
+    /// is off); otherwise `u` is put back and the line search runs from the start as
+    /// without relaxation. Before, every iteration evaluated the residual twice, at the
+    /// trial point and again after the relaxation moved the blocks (docs/performance.md,
+    /// "One residual per relaxed iteration").
+    fn relaxed_full_step(
+        &mut self,
+        conv: &Convergence,
+        with_tangent: bool,
+        tolerance: f64,
+        g0: f64,
+        s: f64,
+    ) -> bool {
+        self.work.trial.copy_from_slice(&self.u);
+        for d in 0..self.u.len() {
+            self.u[d] += s * self.work.delta[d];
+        }
+        self.relax_blocks(tolerance);
+        self.work.trial_step = None;
+        if self.evaluate(with_tangent).is_ok() {
+            let g1 = self.projection(&self.residual);
+            if conv.line_search_threshold <= 0.0
+                || !(g0 > 0.0)
+                || g1.abs() <= conv.line_search_threshold * g0
+            {
+                return true;
+            }
+        }
+        self.u.copy_from_slice(&self.work.trial);
+        false
     }
 
     /// Moves every relaxation block to its own equilibrium at the current `u` (see

@@ -44,4 +44,7 @@ pub struct IterationReport {
     /// The correction was a chord step: solved with an earlier factorisation
     /// ([`super::Convergence::chord_near_convergence`]).
     pub chord: bool,
+    /// The correction was solved with a tangent factorised for it (a stiffness
+    /// reformation, in FEBio's words); false for quasi-Newton and chord corrections.
+    pub reformed: bool,
 }

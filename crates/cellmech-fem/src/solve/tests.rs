@@ -635,6 +635,12 @@ fn relaxed_blocks_reach_the_same_equilibrium_in_fewer_global_iterations() {
         }
         let mut rec = Recorder::default();
         p.run_step(&step, &mut rec).unwrap();
+        // A relaxed iteration that takes the full step evaluates once, where it ends (with
+        // the tangent, for Newton): no residual-only evaluation at an unrelaxed trial point.
+        if relax {
+            assert!(rec.iterations.iter().all(|r| r.line_search == 1.0));
+            assert_eq!(p.timings().residual_evaluations, 0);
+        }
         (p.u().to_vec(), rec.iterations, p.relaxation_stats())
     };
     let (plain, plain_iterations, none) = run(false);
@@ -643,7 +649,16 @@ fn relaxed_blocks_reach_the_same_equilibrium_in_fewer_global_iterations() {
     let (mut p, mut step) = hanging_string();
     p.set_relaxation_blocks(vec![vec![6, 7, 8]]);
     step.control.convergence.method = IterationMethod::Bfgs { max_updates: 10 };
-    p.run_step(&step, &mut Recorder::default()).unwrap();
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    // BFGS evaluates residuals only: one per iteration (two before, when every relaxed
+    // iteration also evaluated its unrelaxed trial point).
+    assert!(rec.iterations.iter().all(|r| r.line_search == 1.0));
+    assert_eq!(p.timings().residual_evaluations, rec.iterations.len());
+    // Each factorisation is reported once, on the iteration whose correction it solved.
+    let reformed = rec.iterations.iter().filter(|r| r.reformed).count();
+    assert!(rec.iterations[0].reformed);
+    assert_eq!(reformed, p.timings().factorizations);
     let quasi = p.u().to_vec();
     // Closed form: node 2 on the axis midway, string tension (2 + u1)/2 - 0.8, and node 1
     // in balance: 2 = 10 u1 + (2 + u1)/2 - 0.8, so u1 = 1.8 / 10.5.
@@ -671,6 +686,80 @@ fn relaxed_blocks_reach_the_same_equilibrium_in_fewer_global_iterations() {
     for w in ratios.windows(2).filter(|w| w[0] < 1e-2 && w[1] > 0.0) {
         assert!(w[1] < 10.0 * w[0] * w[0], "not quadratic: {ratios:?}");
     }
+}
+
+#[test]
+fn a_relaxed_full_step_that_fails_the_line_search_is_put_back_and_searched() {
+    // Node 0's x on a support whose force atan(u³) + 0.1 u stiffens and then saturates, node
+    // 1 hanging from it by a unit spring along x (relaxed as a block, or not): at 1.4 nN
+    // both sit at the root u* ≈ 1.45. The predictor (stiffness 0.1 at u = 0) throws node 0
+    // to u = 14, where the support is flat again, so Newton's next correction lands at
+    // u ≈ -1.7, where δ·R is larger than before: the full step is rejected and the line
+    // search (secant steps from the start state) takes over.
+    let law = |u: f64, _| {
+        let u3 = u.powi(3);
+        (
+            u3.atan() + 0.1 * u,
+            3.0 * u * u / (1.0 + u3 * u3) + 0.1,
+            0.0,
+        )
+    };
+    let root = {
+        let (mut lo, mut hi) = (0.0f64, 3.0f64);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if law(mid, false).0 < 1.4 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        0.5 * (lo + hi)
+    };
+    let run = |relax: bool| {
+        let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        let terms: Vec<Box<dyn Term>> = vec![
+            Box::new(OneDofSupport { law }),
+            Box::new(springs(&nodes, &[[0, 1]], 1.0)),
+        ];
+        let mut p = Problem::new(
+            DofMap::translational(nodes.len()),
+            terms,
+            Box::new(DenseSolver::default()),
+        )
+        .unwrap();
+        if relax {
+            p.set_relaxation_blocks(vec![vec![3, 4, 5]]);
+        }
+        let mut step = Step::new("load");
+        step.prescribed = [1, 2, 4, 5]
+            .into_iter()
+            .map(|d| (d, Motion::Hold))
+            .collect();
+        step.loads = vec![NodalLoad { dof: 0, value: 1.4 }];
+        step.control.initial_increment = 1.0;
+        step.control.max_increment = 1.0;
+        // A strict test: the full step must cut δ·R to a tenth.
+        step.control.convergence.line_search_threshold = 0.1;
+        let mut rec = Recorder::default();
+        p.run_step(&step, &mut rec).unwrap();
+        (p.u().to_vec(), rec, p.timings().residual_evaluations)
+    };
+    let (plain, plain_rec, plain_evaluations) = run(false);
+    let (relaxed, rec, evaluations) = run(true);
+    for u in [&plain, &relaxed] {
+        assert!(
+            (u[0] - root).abs() < 1e-6 && (u[3] - root).abs() < 1e-6,
+            "{u:?} root {root}"
+        );
+    }
+    assert_eq!(plain_rec.cutbacks + rec.cutbacks, 0);
+    // Without relaxation every Newton iteration after the predictor evaluates its trial
+    // point once; more means the line search ran.
+    assert!(plain_evaluations > plain_rec.iterations.len() - 1);
+    // With it, an iteration whose relaxed full step passes evaluates no residual alone:
+    // any residual-only evaluation is the line search after a full step was put back.
+    assert!(evaluations > 0, "no full step was rejected");
 }
 
 /// A load on one DOF that appears at the first augmentation after `arm_after` committed

@@ -193,6 +193,7 @@ impl OutputWriter {
             "line_search",
             "correction_norm_um",
             "chord",
+            "reformed",
         ];
         let convergence_csv =
             CurveWriter::create(&dir.join("convergence.csv"), &convergence_header)
@@ -413,6 +414,7 @@ impl Observer for OutputWriter {
             r.line_search,
             r.correction_norm,
             f64::from(u8::from(r.chord)),
+            f64::from(u8::from(r.reformed)),
         ];
         // A row per Newton iteration: written at least once a second and at the end of
         // every increment or failed attempt (`flush` below), not a file rewrite each.
