@@ -106,8 +106,18 @@ struct Analysis {
     /// Fill-reducing permutation, `perm[new] = old`.
     perm: Vec<usize>,
     symbolic: SymbolicCholesky<usize>,
-    /// The tree-parallel numeric Cholesky on `symbolic` (None: faer's numeric step).
+    /// The tree-parallel numeric Cholesky on `symbolic` (None: faer's numeric step), and
+    /// the LLᵀ solves on it.
     tree: Option<TreeCholesky>,
+    /// faer's column order of the factor (`tree_perm[new] = old`), the permuted vectors of
+    /// the tree's solves (empty without a tree) and the threads of the current factor's
+    /// solves (those its factorisation used).
+    tree_perm: Vec<usize>,
+    tree_y: Vec<f64>,
+    tree_y32: Vec<f32>,
+    tree_products: Vec<f64>,
+    tree_products32: Vec<f32>,
+    solve_threads: usize,
     tree_workspaces: WorkspacePool<f64>,
     tree_workspaces32: WorkspacePool<f32>,
     l_values: Vec<f64>,
@@ -325,6 +335,7 @@ impl FaerSparseSolver {
         let analysis = self.analysis.as_ref().ok_or("not analysed")?;
         let (par, threads) = (self.factor_par(analysis), self.tree_threads(analysis));
         let a = self.analysis.as_mut().ok_or("not analysed")?;
+        a.solve_threads = threads;
         let factor = LltFactor {
             symbolic: &a.symbolic,
             tree: a.tree.as_ref(),
@@ -461,12 +472,28 @@ impl FaerSparseSolver {
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         match self.numeric.as_ref() {
             None => return Err(usage("solve before a successful factorize")),
-            Some(Numeric::Llt) => LltRef::new(&a.symbolic, &a.l_values).solve_in_place_with_conj(
-                Conj::No,
-                rhs_mat,
-                par,
-                &mut stack,
-            ),
+            Some(Numeric::Llt) => match a.tree.as_ref() {
+                Some(tree) => {
+                    for (y, &old) in a.tree_y.iter_mut().zip(&a.tree_perm) {
+                        *y = rhs_mat[(old, 0)];
+                    }
+                    tree.solve_in_place(
+                        &a.l_values,
+                        &mut a.tree_y,
+                        &mut a.tree_products,
+                        a.solve_threads,
+                    );
+                    for (&y, &old) in a.tree_y.iter().zip(&a.tree_perm) {
+                        rhs[old] = y;
+                    }
+                }
+                None => LltRef::new(&a.symbolic, &a.l_values).solve_in_place_with_conj(
+                    Conj::No,
+                    rhs_mat,
+                    par,
+                    &mut stack,
+                ),
+            },
             Some(Numeric::Lblt) => {
                 let perm = faer::perm::PermRef::new_checked(&a.bk_fwd, &a.bk_inv, n);
                 IntranodeLbltRef::new(&a.symbolic, &a.l_values, &a.subdiag, perm)
@@ -546,6 +573,7 @@ impl LinearSolver for FaerSparseSolver {
             None => (0..n).collect(),
         };
         let tree = TreeCholesky::new(pattern, &factor_perm, sym).ok();
+        let tree_len = |len: usize| if tree.is_some() { len } else { 0 };
         let info = AnalysisInfo {
             tree_factorisation: tree.is_some(),
             ordering: self.ordering,
@@ -596,6 +624,23 @@ impl LinearSolver for FaerSparseSolver {
             bk_fwd: vec![0; n],
             bk_inv: vec![0; n],
             symbolic,
+            tree_y: vec![0.0; tree_len(n)],
+            tree_y32: vec![0.0; if self.mixed { tree_len(n) } else { 0 }],
+            tree_products: vec![0.0; tree.as_ref().map_or(0, |t| t.solve_scratch_len())],
+            tree_products32: vec![
+                0.0;
+                if self.mixed {
+                    tree.as_ref().map_or(0, |t| t.solve_scratch_len())
+                } else {
+                    0
+                }
+            ],
+            tree_perm: if tree.is_some() {
+                factor_perm
+            } else {
+                Vec::new()
+            },
+            solve_threads: 1,
             tree,
             tree_workspaces: WorkspacePool::default(),
             tree_workspaces32: WorkspacePool::default(),
@@ -785,6 +830,7 @@ impl FaerSparseSolver {
         let analysis = self.analysis.as_ref().ok_or("not analysed")?;
         let (par, threads) = (self.factor_par(analysis), self.tree_threads(analysis));
         let a = self.analysis.as_mut().ok_or("not analysed")?;
+        a.solve_threads = threads;
         for c in 0..a.n {
             let d = values[a.diag_pos[c]];
             if !(d > 0.0) {
@@ -1004,6 +1050,21 @@ impl LltFactor<'_> {
 /// diagonal the factor was computed for).
 fn single_precision_solve(a: &mut Analysis, v: &[f64], par: Par) {
     let n = a.n;
+    if let Some(tree) = a.tree.as_ref() {
+        for (y, &old) in a.tree_y32.iter_mut().zip(&a.tree_perm) {
+            *y = (v[old] * a.scale[old]) as f32;
+        }
+        tree.solve_in_place(
+            &a.l_values32,
+            &mut a.tree_y32,
+            &mut a.tree_products32,
+            a.solve_threads,
+        );
+        for (&y, &old) in a.tree_y32.iter().zip(&a.tree_perm) {
+            a.x32[old] = (f64::from(y) * a.scale[old]) as f32;
+        }
+        return;
+    }
     for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
         *x = (b * d) as f32;
     }

@@ -71,6 +71,48 @@ const MAX_UPDATE_SPLITS: usize = 2;
 /// factorisation time; at 32k and 100k DOFs 1e9 and 5e7 factorise equally fast.
 const MIN_DENSE_PARALLEL_FLOPS: f64 = 1e9;
 
+/// Subtrees whose solve reads fewer entries of L are solved by one task.
+const MIN_FORK_SOLVE_ENTRIES: usize = 200_000;
+
+/// What the tasks of one solve share: the solution, the supernodes' products, the factor.
+struct SolveShared<'a, T> {
+    x: SharedValues<T>,
+    t: SharedValues<T>,
+    l: &'a [T],
+}
+
+/// `y += a x`.
+fn axpy<T: TreeScalar>(y: &mut [T], a: &[T], x: T) {
+    if x == T::ZERO {
+        return;
+    }
+    for (y, &a) in y.iter_mut().zip(a) {
+        *y += a * x;
+    }
+}
+
+/// `Σ a_i b_i` in eight interleaved partial sums added in a fixed order (the compiler can
+/// vectorise it; the result does not depend on the schedule).
+fn dot<T: TreeScalar>(a: &[T], b: &[T]) -> T {
+    let mut acc = [T::ZERO; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut sum = T::ZERO;
+    for (&x, &y) in ra.iter().zip(rb) {
+        sum += x * y;
+    }
+    for v in acc {
+        sum += v;
+    }
+    sum
+}
+
+
 /// The structure, computed once per pattern.
 pub(crate) struct TreeCholesky {
     n: usize,
@@ -98,6 +140,8 @@ pub(crate) struct TreeCholesky {
     position: Vec<usize>,
     own_flops: Vec<f64>,
     subtree_flops: Vec<f64>,
+    /// Entries of L in each supernode's subtree (what a solve of it reads).
+    subtree_entries: Vec<usize>,
     /// Flops of the updates each supernode receives (`2 · rows · columns · width`).
     update_flops: Vec<f64>,
     /// Largest update product (rows × columns) and largest supernode width.
@@ -146,6 +190,16 @@ impl<T> SharedValues<T> {
         debug_assert!(range.end <= self.len);
         // SAFETY: in bounds, and no other task touches this block now (caller's contract).
         unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+
+    /// SAFETY: `i` must be outside every block written now (a finished supernode's).
+    unsafe fn get(&self, i: usize) -> T
+    where
+        T: Copy,
+    {
+        debug_assert!(i < self.len);
+        // SAFETY: in bounds, and its writer has finished (caller's contract).
+        unsafe { *self.ptr.add(i) }
     }
 
     /// SAFETY: `range` must be the block of a finished descendant of the caller's supernode.
@@ -279,11 +333,14 @@ impl TreeCholesky {
             .map(|s| column_flops(end[s] - begin[s], pat_ptr[s + 1] - pat_ptr[s]))
             .collect();
         let mut subtree_flops = own_flops.clone();
+        let mut subtree_entries: Vec<usize> =
+            (0..ns).map(|s| val_ptr[s + 1] - val_ptr[s]).collect();
         for s in 0..ns {
             match parent[s] {
                 Some(p) => {
                     children[p].push(s);
                     subtree_flops[p] += subtree_flops[s];
+                    subtree_entries[p] += subtree_entries[s];
                 }
                 None => roots.push(s),
             }
@@ -345,6 +402,7 @@ impl TreeCholesky {
             position,
             own_flops,
             subtree_flops,
+            subtree_entries,
             update_flops,
             max_product,
             max_width,
@@ -610,6 +668,198 @@ impl TreeCholesky {
         }
         Ok(())
     }
+
+    /// Solves `L Lᵀ y = c` in place (`y`: the right-hand side `c` in the factor's permuted
+    /// order on entry, the solution on return) with the factor `l` this structure's
+    /// `factorize` wrote; `products` is scratch of [`TreeCholesky::solve_scratch_len`]
+    /// entries. Forward, each supernode subtracts from its rows the products
+    /// `L_d[rows] x_d` its descendants left in `products` (in its update list's order),
+    /// solves with its diagonal block and leaves its own product `L_s[below] x_s` for its
+    /// ancestors; so independent subtrees run as concurrent tasks, as in the
+    /// factorisation. Backward, each supernode gathers its ancestors' solution into its
+    /// share of `products` and goes down the tree. Every supernode sums in the same order
+    /// on any schedule, so the solution is bitwise the same on any number of `threads`
+    /// (faer's parallel solves are not, which is why they are not used).
+    pub(crate) fn solve_in_place<T: TreeScalar>(
+        &self,
+        l: &[T],
+        y: &mut [T],
+        products: &mut [T],
+        threads: usize,
+    ) {
+        debug_assert_eq!(y.len(), self.n);
+        debug_assert_eq!(l.len(), self.val_ptr[self.val_ptr.len() - 1]);
+        debug_assert_eq!(products.len(), self.solve_scratch_len());
+        let x = SharedValues {
+            ptr: y.as_mut_ptr(),
+            len: y.len(),
+        };
+        let t = SharedValues {
+            ptr: products.as_mut_ptr(),
+            len: products.len(),
+        };
+        let sx = SolveShared { x, t, l };
+        let forking = threads > 1;
+        self.forward_group(&self.roots, &sx, forking);
+        self.backward_group(&self.roots, &sx, forking);
+    }
+
+    /// Entries of the scratch [`TreeCholesky::solve_in_place`] needs (one per row of every
+    /// supernode's pattern).
+    pub(crate) fn solve_scratch_len(&self) -> usize {
+        self.pat.len()
+    }
+
+    /// Forward solve of the subtrees rooted at `roots` (none an ancestor of another).
+    fn forward_group<T: TreeScalar>(
+        &self,
+        roots: &[usize],
+        sx: &SolveShared<'_, T>,
+        forking: bool,
+    ) {
+        let work: usize = roots.iter().map(|&r| self.subtree_entries[r]).sum();
+        if !forking || work < MIN_FORK_SOLVE_ENTRIES {
+            for &r in roots {
+                for &s in &self.post[self.first[r]..=self.position[r]] {
+                    self.forward_supernode(s, sx);
+                }
+            }
+            return;
+        }
+        if roots.len() == 1 {
+            let r = roots[0];
+            let mut top = r;
+            while self.children[top].len() == 1 {
+                top = self.children[top][0];
+            }
+            self.forward_group(&self.children[top], sx, forking);
+            let mut s = top;
+            loop {
+                self.forward_supernode(s, sx);
+                match self.parent[s] {
+                    Some(p) if s != r => s = p,
+                    _ => break,
+                }
+            }
+            return;
+        }
+        let (left, right) = self.halves(roots, work);
+        rayon::join(
+            || self.forward_group(left, sx, forking),
+            || self.forward_group(right, sx, forking),
+        );
+    }
+
+    /// Backward solve of the subtrees rooted at `roots`: each root's chain first, then
+    /// its children's subtrees.
+    fn backward_group<T: TreeScalar>(
+        &self,
+        roots: &[usize],
+        sx: &SolveShared<'_, T>,
+        forking: bool,
+    ) {
+        let work: usize = roots.iter().map(|&r| self.subtree_entries[r]).sum();
+        if !forking || work < MIN_FORK_SOLVE_ENTRIES {
+            for &r in roots {
+                for &s in self.post[self.first[r]..=self.position[r]].iter().rev() {
+                    self.backward_supernode(s, sx);
+                }
+            }
+            return;
+        }
+        if roots.len() == 1 {
+            let mut s = roots[0];
+            self.backward_supernode(s, sx);
+            while self.children[s].len() == 1 {
+                s = self.children[s][0];
+                self.backward_supernode(s, sx);
+            }
+            self.backward_group(&self.children[s], sx, forking);
+            return;
+        }
+        let (left, right) = self.halves(roots, work);
+        rayon::join(
+            || self.backward_group(left, sx, forking),
+            || self.backward_group(right, sx, forking),
+        );
+    }
+
+    /// Siblings (sorted by decreasing subtree flops) split into two groups of about equal
+    /// solve work: the shortest prefix with half of it, and the rest.
+    fn halves<'r>(&self, roots: &'r [usize], work: usize) -> (&'r [usize], &'r [usize]) {
+        let mut prefix = 0;
+        let mut k = 1;
+        for (i, &r) in roots.iter().enumerate() {
+            prefix += self.subtree_entries[r];
+            k = i + 1;
+            if 2 * prefix >= work {
+                break;
+            }
+        }
+        roots.split_at(k.min(roots.len() - 1))
+    }
+
+    /// Forward solve of supernode `s`: `x_s -= L_d[rows in s] x_d` over its descendants
+    /// (their products), `x_s = L_ss⁻¹ x_s`, then its own product `t_s = L_s[below] x_s`.
+    fn forward_supernode<T: TreeScalar>(&self, s: usize, sx: &SolveShared<'_, T>) {
+        let (b, e) = (self.begin[s], self.end[s]);
+        let w = e - b;
+        // SAFETY: this task solves s, whose rows and product nobody else writes; the
+        // descendants' products it reads are finished (they come before s in every
+        // schedule).
+        let xs = unsafe { sx.x.block_mut(b..e) };
+        for &(d, i0, i1) in &self.upd[self.upd_ptr[s]..self.upd_ptr[s + 1]] {
+            let (p0, p1) = (self.pat_ptr[d] + i0, self.pat_ptr[d] + i1);
+            let rows = &self.pat[p0..p1];
+            // SAFETY: d is a finished descendant of s.
+            let td = unsafe { sx.t.block(p0..p1) };
+            for (&r, &v) in rows.iter().zip(td) {
+                xs[r - b] -= v;
+            }
+        }
+        let (p0, p1) = (self.pat_ptr[s], self.pat_ptr[s + 1]);
+        let m = w + p1 - p0;
+        let ls = &sx.l[self.val_ptr[s]..self.val_ptr[s + 1]];
+        for j in 0..w {
+            let column = &ls[j * m..j * m + w];
+            let xj = xs[j] / column[j];
+            xs[j] = xj;
+            axpy(&mut xs[j + 1..], &column[j + 1..], -xj);
+        }
+        // SAFETY: s's own product, written by this task only.
+        let ts = unsafe { sx.t.block_mut(p0..p1) };
+        ts.fill(T::ZERO);
+        for (j, &xj) in xs.iter().enumerate() {
+            axpy(ts, &ls[j * m + w..(j + 1) * m], xj);
+        }
+    }
+
+    /// Backward solve of supernode `s`: `x_s -= L_s[below]ᵀ x[pattern]` (its ancestors'
+    /// solution, gathered into its share of the products), then `x_s = L_ssᵀ⁻¹ x_s`.
+    fn backward_supernode<T: TreeScalar>(&self, s: usize, sx: &SolveShared<'_, T>) {
+        let (b, e) = (self.begin[s], self.end[s]);
+        let w = e - b;
+        let (p0, p1) = (self.pat_ptr[s], self.pat_ptr[s + 1]);
+        let pattern = &self.pat[p0..p1];
+        let m = w + pattern.len();
+        let ls = &sx.l[self.val_ptr[s]..self.val_ptr[s + 1]];
+        // SAFETY: s's share of the products is written by this task only; the pattern's
+        // rows belong to ancestors of s, finished before s in every schedule, and lie
+        // outside s's rows, which this task alone writes.
+        let g = unsafe { sx.t.block_mut(p0..p1) };
+        for (g, &r) in g.iter_mut().zip(pattern) {
+            *g = unsafe { sx.x.get(r) };
+        }
+        let xs = unsafe { sx.x.block_mut(b..e) };
+        for (j, xj) in xs.iter_mut().enumerate() {
+            *xj -= dot(&ls[j * m + w..(j + 1) * m], g);
+        }
+        for j in (0..w).rev() {
+            let column = &ls[j * m..j * m + w];
+            let sum = dot(&column[j + 1..], &xs[j + 1..]);
+            xs[j] = (xs[j] - sum) / column[j];
+        }
+    }
 }
 #[cfg(test)]
 mod tests {
@@ -793,6 +1043,124 @@ mod tests {
         let nb: f64 = b.iter().map(|v| v * v).sum::<f64>().sqrt();
         assert!(r < 1e-10 * nb, "relative residual {:e}", r / nb);
         assert!(bitwise_equal(&one, &two));
+    }
+
+    /// faer's solve of `L Lᵀ x = b` (original order) with the factor `l`.
+    fn faer_solve<T: TreeScalar>(sym: &SymbolicCholesky<usize>, l: &[T], b: &[T]) -> Vec<T> {
+        use faer::sparse::linalg::cholesky::LltRef;
+        let n = b.len();
+        let mut x = b.to_vec();
+        let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<T>(1, Par::Seq));
+        LltRef::new(sym, l).solve_in_place_with_conj(
+            faer::Conj::No,
+            MatMut::from_column_major_slice_mut(&mut x, n, 1),
+            Par::Seq,
+            &mut MemStack::new(&mut mem),
+        );
+        x
+    }
+
+    /// The tree's solve of `L Lᵀ x = b` (original order): permuted in, solved, permuted out.
+    fn tree_solve<T: TreeScalar>(
+        tree: &TreeCholesky,
+        perm: &[usize],
+        l: &[T],
+        b: &[T],
+        threads: usize,
+    ) -> Vec<T> {
+        let mut y: Vec<T> = perm.iter().map(|&old| b[old]).collect();
+        let mut products = vec![T::ZERO; tree.solve_scratch_len()];
+        tree.solve_in_place(l, &mut y, &mut products, threads);
+        let mut x = vec![T::ZERO; b.len()];
+        for (new, &old) in perm.iter().enumerate() {
+            x[old] = y[new];
+        }
+        x
+    }
+
+    #[test]
+    fn the_tree_solve_equals_faers_and_is_the_same_bits_on_one_two_and_four_threads() {
+        let m = hex_elasticity(12, 11, 10, 1.0, 0.3);
+        let (sym, perm) = symbolic(&m.pattern);
+        let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+        let l = faer_factor(&sym, &m.pattern, &m.values);
+        let b: Vec<f64> = (0..m.pattern.n)
+            .map(|i| ((i * 7919) % 13) as f64 - 6.0)
+            .collect();
+        let reference = faer_solve(&sym, &l, &b);
+        let solves: Vec<Vec<f64>> = [1, 2, 4]
+            .into_iter()
+            .map(|t| in_pool(t, || tree_solve(&tree, &perm, &l, &b, t)))
+            .collect();
+        let d = max_relative_difference(&solves[0], &reference);
+        assert!(d < 1e-12, "against faer's solve: {d:e}");
+        assert!(d > 0.0 || solves[0] == reference);
+        assert!(bitwise_equal(&solves[0], &solves[1]) && bitwise_equal(&solves[0], &solves[2]));
+        // The subtrees were solved as concurrent tasks: the tree is large enough to fork.
+        assert!(tree.subtree_entries[tree.roots[0]] > 4 * MIN_FORK_SOLVE_ENTRIES);
+        // Single precision, against faer's single-precision solve of the same factor.
+        let l32: Vec<f32> = {
+            let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
+            let mut l = vec![0.0f32; sym.len_val()];
+            faer_factor_into(
+                &sym,
+                &m.pattern,
+                &values32,
+                &mut l,
+                &mut faer_scratch::<f32>(&sym),
+            );
+            l
+        };
+        let b32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
+        let widen = |v: Vec<f32>| v.into_iter().map(f64::from).collect::<Vec<_>>();
+        let reference32 = widen(faer_solve(&sym, &l32, &b32));
+        let one = widen(in_pool(1, || tree_solve(&tree, &perm, &l32, &b32, 1)));
+        let two = widen(in_pool(2, || tree_solve(&tree, &perm, &l32, &b32, 2)));
+        let d = max_relative_difference(&one, &reference32);
+        assert!(d < 1e-4, "single precision against faer's: {d:e}");
+        assert!(bitwise_equal(&one, &two));
+    }
+
+    #[test]
+    #[ignore = "times the tree's single-precision solve against faer's sequential one"]
+    fn time_tree_solve_against_faer() {
+        use std::time::Instant;
+        for k in [14, 20] {
+            let m = hex_elasticity(k, k, k, 1.0, 0.3);
+            let (sym, perm) = symbolic(&m.pattern);
+            let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
+            let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
+            let mut l = vec![0.0f32; sym.len_val()];
+            faer_factor_into(
+                &sym,
+                &m.pattern,
+                &values32,
+                &mut l,
+                &mut faer_scratch::<f32>(&sym),
+            );
+            let b: Vec<f32> = (0..m.pattern.n)
+                .map(|i| ((i * 7919) % 13) as f32 - 6.0)
+                .collect();
+            let mut best = [f64::INFINITY; 3];
+            for _ in 0..10 {
+                for (slot, threads) in [(0, 1), (1, 2)] {
+                    let t = Instant::now();
+                    in_pool(threads, || tree_solve(&tree, &perm, &l, &b, threads));
+                    best[slot] = best[slot].min(t.elapsed().as_secs_f64());
+                }
+                let t = Instant::now();
+                faer_solve(&sym, &l, &b);
+                best[2] = best[2].min(t.elapsed().as_secs_f64());
+            }
+            eprintln!(
+                "n {} L {}: tree 1 thread {:.2} ms, 2 threads {:.2} ms, faer {:.2} ms",
+                m.pattern.n,
+                sym.len_val(),
+                best[0] * 1e3,
+                best[1] * 1e3,
+                best[2] * 1e3
+            );
+        }
     }
 
     #[test]
