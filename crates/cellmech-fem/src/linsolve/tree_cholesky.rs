@@ -112,7 +112,6 @@ fn dot<T: TreeScalar>(a: &[T], b: &[T]) -> T {
     sum
 }
 
-
 /// The structure, computed once per pattern.
 pub(crate) struct TreeCholesky {
     n: usize,
@@ -147,13 +146,22 @@ pub(crate) struct TreeCholesky {
     /// Largest update product (rows × columns) and largest supernode width.
     max_product: usize,
     max_width: usize,
+    /// Longest supernode pattern (rows below the diagonal block).
+    max_pattern: usize,
 }
 
-/// One task's scratch: the row map, the update product and the dense kernels' stack.
+/// One task's scratch: the row map, the updates' scratch and the dense kernels' stack.
 pub(crate) struct Workspace<T> {
     map: Vec<usize>,
-    product: Vec<T>,
+    scratch: UpdateScratch<T>,
     mem: MemBuffer,
+}
+
+/// Scratch of one task's updates: the product buffer, and where each row of the update
+/// lands in the target block.
+struct UpdateScratch<T> {
+    product: Vec<T>,
+    local: Vec<usize>,
 }
 
 /// Workspaces kept between factorisations (one per concurrent task).
@@ -382,6 +390,10 @@ impl TreeCholesky {
                 }
             }
         }
+        let max_pattern = (0..ns)
+            .map(|s| pat_ptr[s + 1] - pat_ptr[s])
+            .max()
+            .unwrap_or(0);
         Ok(TreeCholesky {
             n,
             a_ptr,
@@ -406,6 +418,7 @@ impl TreeCholesky {
             update_flops,
             max_product,
             max_width,
+            max_pattern,
         })
     }
 
@@ -424,7 +437,10 @@ impl TreeCholesky {
         ]);
         Ok(Workspace {
             map: vec![usize::MAX; self.n],
-            product: vec![T::ZERO; self.max_product],
+            scratch: UpdateScratch {
+                product: vec![T::ZERO; self.max_product],
+                local: vec![0; self.max_pattern],
+            },
             mem: MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?,
         })
     }
@@ -561,8 +577,8 @@ impl TreeCholesky {
                 column[local] += values[self.a_src[idx]];
             }
         }
-        let Workspace { map, product, mem } = ws;
-        self.updates(s, 0, w, MAX_UPDATE_SPLITS, block, map, product, cx)?;
+        let Workspace { map, scratch, mem } = ws;
+        self.updates(s, 0, w, MAX_UPDATE_SPLITS, block, map, scratch, cx)?;
         for &r in pattern {
             map[r] = usize::MAX;
         }
@@ -597,7 +613,7 @@ impl TreeCholesky {
         splits: usize,
         part: &mut [T],
         map: &[usize],
-        product: &mut [T],
+        scratch: &mut UpdateScratch<T>,
         cx: &Context<'_, T>,
     ) -> Result<(), String> {
         let (b, e) = (self.begin[s], self.end[s]);
@@ -616,9 +632,9 @@ impl TreeCholesky {
             let (left, right) = part.split_at_mut((mid - lo) * m);
             let mut other = self.workspace(cx.pool)?;
             let (a, c) = cx.join(
-                || self.updates(s, lo, mid, splits - 1, left, map, product, cx),
+                || self.updates(s, lo, mid, splits - 1, left, map, scratch, cx),
                 || {
-                    let other = &mut other.product;
+                    let other = &mut other.scratch;
                     self.updates(s, mid, hi, splits - 1, right, map, other, cx)
                 },
             );
@@ -639,12 +655,21 @@ impl TreeCholesky {
             let ld = unsafe { cx.shared.block(self.val_ptr[d]..self.val_ptr[d + 1]) };
             let ld = MatRef::from_column_major_slice(ld, md, wd);
             let (nr, nc) = (pd.len() - j0, j1 - j0);
+            // Where each row lands in s's block, once per update (not once per column), and
+            // whether they land on consecutive rows (then each column's subtraction is one
+            // slice operation, which vectorises). Every entry still receives the same one
+            // subtraction, so the factor is bitwise the same.
+            let local = &mut scratch.local[..nr];
+            for (l, &row) in local.iter_mut().zip(&pd[j0..]) {
+                *l = if row < e { row - b } else { map[row] };
+            }
+            let consecutive = local[nr - 1] - local[0] == nr - 1;
             // In blocks of rows (a bounded buffer); row r meets the columns c ≤ r.
             let mut r0 = 0;
             while r0 < nr {
                 let rb = ROW_BLOCK.min(nr - r0);
                 let ncb = nc.min(r0 + rb);
-                let product = &mut product[..rb * ncb];
+                let product = &mut scratch.product[..rb * ncb];
                 faer::linalg::matmul::matmul(
                     MatMut::from_column_major_slice_mut(product, rb, ncb),
                     Accum::Replace,
@@ -656,11 +681,17 @@ impl TreeCholesky {
                 for c in 0..ncb {
                     let col = pd[j0 + c] - b - lo;
                     let column = &mut part[col * m..(col + 1) * m];
-                    let source = &product[c * rb..(c + 1) * rb];
-                    for r in c.max(r0)..r0 + rb {
-                        let row = pd[j0 + r];
-                        let local = if row < e { row - b } else { map[row] };
-                        column[local] -= source[r - r0];
+                    let first = c.max(r0);
+                    let source = &product[c * rb + first - r0..(c + 1) * rb];
+                    if consecutive {
+                        let start = local[first];
+                        for (t, &v) in column[start..start + source.len()].iter_mut().zip(source) {
+                            *t -= v;
+                        }
+                    } else {
+                        for (&l, &v) in local[first..r0 + rb].iter().zip(source) {
+                            column[l] -= v;
+                        }
                     }
                 }
                 r0 += rb;

@@ -43,6 +43,8 @@ pub struct BuiltCell {
     /// Whether the cell's `solver.iteration` is `auto`: a protocol then sets BFGS in the
     /// loading steps it was measured to pay in (full Newton stays in `step_control`).
     pub auto_iteration: bool,
+    /// BFGS as the cell iterates by it (`solver.bfgs_updates`), for the protocols' `auto`.
+    pub bfgs: cellmech_fem::solve::IterationMethod,
     /// The point where an indenter may press (µm) and the surface's outward normal there:
     /// the site the mesh is refined at (`None`: the cell has none).
     pub site: Option<([f64; 3], [f64; 3])>,

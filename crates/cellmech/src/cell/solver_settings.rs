@@ -19,6 +19,9 @@ pub struct SolverSettings {
     /// `auto`, full Newton except where a protocol measured BFGS to pay:
     /// [`crate::cell::BuiltCell::auto_iteration`]).
     pub iteration: Option<IterationMethod>,
+    /// BFGS as this cell iterates by it (`solver.bfgs_updates`): in every step with
+    /// `solver.iteration = "bfgs"`, and where `auto` chooses it.
+    pub bfgs: IterationMethod,
     /// Whether every step relaxes the beam filaments by their own Newton solves
     /// (`solver.relaxation`, nonlinear elimination).
     pub relaxation: bool,
@@ -42,6 +45,7 @@ impl SolverSettings {
         SolverSettings {
             stabilization: p::stabilization_from_values(v),
             iteration: p::iteration_from_values(v),
+            bfgs: p::bfgs_from_values(v),
             relaxation: p::relaxation_from_values(v),
             chord: p::chord_from_values(v),
             rotation_step: p::rotation_step_from_values(v),
@@ -74,6 +78,7 @@ impl SolverSettings {
 mod tests {
     use super::*;
     use crate::cell::{adherent, suspended};
+    use crate::param::ParamValue;
 
     #[test]
     fn the_defaults_are_the_engines_criteria_and_the_keys_reach_the_step_control() {
@@ -104,6 +109,18 @@ mod tests {
             assert_eq!(loose.convergence.residual_tolerance, 1e-6);
             assert_eq!(loose.convergence.energy_tolerance, 1e-10);
             assert!(!loose.convergence.chord_near_convergence);
+            // `solver.bfgs_updates` reaches BFGS, chosen by `auto` or by `bfgs`.
+            assert_eq!(defaults.bfgs, IterationMethod::Bfgs { max_updates: 20 });
+            let mut values = ParamValues::defaults(table);
+            values
+                .set(table, "solver.bfgs_updates", ParamValue::Count(7))
+                .unwrap();
+            values
+                .set(table, "solver.iteration", ParamValue::Word("bfgs".into()))
+                .unwrap();
+            let settings = SolverSettings::from_values(&values);
+            assert_eq!(settings.bfgs, IterationMethod::Bfgs { max_updates: 7 });
+            assert_eq!(settings.step_control().convergence.method, settings.bfgs);
         }
     }
 }

@@ -4,7 +4,7 @@
 //! (`refinement.levels`, `refinement.radius`).
 
 use cellmech_fem::contact::ToolShape;
-use cellmech_fem::solve::{Extrapolation, IterationMethod};
+use cellmech_fem::solve::Extrapolation;
 
 use super::{Approach, PoleTest, ProtocolError, ProtocolPlan};
 use crate::cell::suspended::{PoleRefinement, MAX_POLE_REFINEMENT_LEVELS};
@@ -169,7 +169,7 @@ impl MicroplateCompression {
             if quasi_newton {
                 // BFGS where it was measured to pay: half the factorisations, the same
                 // forces (docs/performance.md, "BFGS where it pays").
-                step.control.convergence.method = IterationMethod::bfgs();
+                step.control.convergence.method = cell.bfgs;
             }
             steps.push(step);
             previous = *e;

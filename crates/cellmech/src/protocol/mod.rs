@@ -612,7 +612,7 @@ mod tests {
     ) {
         for step in &built.model.steps {
             let expected = if bfgs_in_loading && step.name.starts_with("compress-") {
-                cellmech_fem::solve::IterationMethod::bfgs()
+                built.bfgs
             } else {
                 cellmech_fem::solve::IterationMethod::Newton
             };
@@ -691,8 +691,10 @@ mod tests {
                         "{kind} ({grip}): step {}",
                         step.name
                     );
+                    // `solver.bfgs_updates`: 20 updates before a reform by default.
+                    assert_eq!(built.bfgs, IterationMethod::Bfgs { max_updates: 20 });
                     let expected = if step.name.starts_with("compress-") {
-                        IterationMethod::bfgs()
+                        built.bfgs
                     } else {
                         IterationMethod::Newton
                     };

@@ -315,6 +315,7 @@ impl AdherentCell {
             rotation_hold: supports,
             step_control: self.step_control(),
             auto_iteration: self.solver.iteration.is_none(),
+            bfgs: self.solver.bfgs,
             site: report.site,
         })
     }

@@ -78,6 +78,7 @@ pub const ADHERENT_CELL: ParamTable = ParamTable {
         shared::SOLVER_STABILIZATION,
         shared::SOLVER_DAMPING,
         shared::SOLVER_ITERATION,
+        shared::SOLVER_BFGS_UPDATES,
         shared::SOLVER_RELAXATION,
         shared::SOLVER_CHORD,
         shared::SOLVER_ROTATION_STEP,

@@ -860,6 +860,7 @@ impl SuspendedCell {
             rotation_hold,
             step_control: self.step_control(),
             auto_iteration: self.solver.iteration.is_none(),
+            bfgs: self.solver.bfgs,
             site: None,
         })
     }

@@ -225,7 +225,9 @@ pub(crate) const SOLVER_STABILIZATION: ParamDef = p("solver.stabilization", K::C
 /// `solver.damping` (shared by the cell models).
 pub(crate) const SOLVER_DAMPING: ParamDef = p("solver.damping", K::Choice(&["auto", "nodal", "filament-drag"]), D::Word("auto"), ANY, "what the viscous stabilisation resists: `nodal`, every free node's motion over the increment (Abaqus); `filament-drag`, only the slip of the filament nodes tied to the gel relative to their material points, and the filaments' rotations (the drag of a viscous cytoplasm on a filament moving through it: rigid motion and the gel's own deformation are not damped; needs `microtubules.coupling = \"foundation\"`; a step with every tied family switched off gets `nodal`); `auto`, `filament-drag` with MTs on the foundation, `nodal` otherwise", "choice, measured ([stabilisation](stabilization.md#relative-damping)): on the suspended-cell compression with MTs on the foundation the drag dissipates 0.71 % of the last step's strain energy where the nodal viscosity takes 11 %, with the same forces within 0.3 %");
 /// `solver.iteration` (shared by the cell models).
-pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["auto", "newton", "bfgs"]), D::Word("auto"), ANY, "corrections after each increment's first: `newton`, full Newton in every step (a factorisation per iteration, chord steps near convergence); `bfgs`, quasi-Newton in every step (the increment's factorisation kept, up to 10 rank-two updates; a failed increment is retried with full Newton); `auto`, BFGS in the microplate compression's loading steps unless filament nodes are embedded (free filaments, or MTs on the elastic foundation with `rotation_step` above 0), full Newton everywhere else", "choice, measured ([performance](performance.md#bfgs-where-it-pays-2026-12-04-sixth-session)): BFGS halves the free cell's compression factorisations (fast mesh 86 -> 50, default mesh 111 -> 59; forces within 2e-8, 4e-5 where a cut-back changed the path) but is not reliably cheaper with embedded filaments, costs cut-backs in tension without AFs and at ~100 % elongation, and moves the AFM curve by 0.8 % (FEBio's default is BFGS); with MTs on the foundation and the rotations' trust region it takes the compression from 288 to 217 factorisations ([performance](performance.md#a-trust-region-on-the-rotations-2026-12-06)), 154 since the trust region also bounds an increment's first correction; a BFGS increment is easy (the next grows) within 10 iterations, full Newton's within 5");
+pub(crate) const SOLVER_ITERATION: ParamDef = p("solver.iteration", K::Choice(&["auto", "newton", "bfgs"]), D::Word("auto"), ANY, "corrections after each increment's first: `newton`, full Newton in every step (a factorisation per iteration, chord steps near convergence); `bfgs`, quasi-Newton in every step (the increment's factorisation kept, up to `solver.bfgs_updates` rank-two updates; a failed increment is retried with full Newton); `auto`, BFGS in the microplate compression's loading steps unless filament nodes are embedded (free filaments, or MTs on the elastic foundation with `rotation_step` above 0), full Newton everywhere else", "choice, measured ([performance](performance.md#bfgs-where-it-pays-2026-12-04-sixth-session)): BFGS halves the free cell's compression factorisations (fast mesh 86 -> 50, default mesh 111 -> 59; forces within 2e-8, 4e-5 where a cut-back changed the path) but is not reliably cheaper with embedded filaments, costs cut-backs in tension without AFs and at ~100 % elongation, and moves the AFM curve by 0.8 % (FEBio's default is BFGS); with MTs on the foundation and the rotations' trust region it takes the compression from 288 to 217 factorisations ([performance](performance.md#a-trust-region-on-the-rotations-2026-12-06)), 154 since the trust region also bounds an increment's first correction; a BFGS increment is easy (the next grows) within 10 iterations, full Newton's within 5");
+/// `solver.bfgs_updates` (shared by the cell models).
+pub(crate) const SOLVER_BFGS_UPDATES: ParamDef = p("solver.bfgs_updates", K::Count, D::Count(20), Bounds::new(1.0, true, 200.0, true), "where BFGS iterates (`solver.iteration`), the rank-two updates of the kept factorisation before the tangent is reformed (it is reformed earlier when the residual grows or an update would lose positive curvature)", "choice, measured ([performance](performance.md#fewer-reforms-in-the-compressions-bfgs-2026-12-07-stop-52)): on the default compression 20 instead of FEBio's 10 takes 78 instead of 88 factorisations and 443 instead of 397 Newton iterations, 0.957 of the wall time (farm-bench, 2 cores), forces within 2e-9; a reform costs about ten BFGS iterations there");
 /// `solver.relaxation` (shared by the cell models).
 pub(crate) const SOLVER_RELAXATION: ParamDef = p("solver.relaxation", K::Choice(&["filaments", "off"]), D::Word("filaments"), ANY, "after every global Newton update, each beam filament's own DOFs (the interior nodes of a free MT, the rotations at its ends) are moved to their equilibrium by a local Newton solve with the rest held (nonlinear elimination); the same equilibrium in fewer global iterations, or off", "choice, measured ([performance](performance.md#nonlinear-elimination-of-the-free-filaments)): default tension 74 -> 41 factorisations, compression 258 -> 160, forces within 2e-9");
 /// `solver.chord` (shared by the cell models).
@@ -517,6 +519,7 @@ pub const SUSPENDED_CELL: ParamTable = ParamTable {
         SOLVER_STABILIZATION,
         SOLVER_DAMPING,
         SOLVER_ITERATION,
+        SOLVER_BFGS_UPDATES,
         SOLVER_RELAXATION,
         SOLVER_CHORD,
         SOLVER_ROTATION_STEP,
@@ -704,11 +707,19 @@ pub fn stabilization_from_values(v: &ParamValues) -> Option<Stabilization> {
     })
 }
 
+/// BFGS with `solver.bfgs_updates` updates before a reform, from resolved values of a
+/// cell model's table: what `bfgs` and `auto` (where it chooses BFGS) iterate by.
+pub fn bfgs_from_values(v: &ParamValues) -> IterationMethod {
+    IterationMethod::Bfgs {
+        max_updates: v.count("solver.bfgs_updates"),
+    }
+}
+
 /// The iteration method of every step from resolved values of a cell model's table
 /// (`None`: `auto`, each protocol's measured choice).
 pub fn iteration_from_values(v: &ParamValues) -> Option<IterationMethod> {
     match v.word("solver.iteration") {
-        "bfgs" => Some(IterationMethod::bfgs()),
+        "bfgs" => Some(bfgs_from_values(v)),
         "newton" => Some(IterationMethod::Newton),
         _ => None,
     }
