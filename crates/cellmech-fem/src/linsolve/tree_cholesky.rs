@@ -731,8 +731,8 @@ impl TreeCholesky {
         };
         let sx = SolveShared { x, t, l };
         let forking = threads > 1;
-        self.forward_group(&self.roots, &sx, forking);
-        self.backward_group(&self.roots, &sx, forking);
+        self.solve_group(&self.roots, &sx, forking, true);
+        self.solve_group(&self.roots, &sx, forking, false);
     }
 
     /// Entries of the scratch [`TreeCholesky::solve_in_place`] needs (one per row of every
@@ -741,77 +741,67 @@ impl TreeCholesky {
         self.pat.len()
     }
 
-    /// Forward solve of the subtrees rooted at `roots` (none an ancestor of another).
-    fn forward_group<T: TreeScalar>(
+    /// The forward (`up`: children before parents) or backward (parents before children)
+    /// solve of the subtrees rooted at `roots` (none an ancestor of another). Below
+    /// [`MIN_FORK_SOLVE_ENTRIES`] one task walks them in (reverse) postorder; a single root
+    /// walks its chain of single children around the subtrees below it; several roots
+    /// split into two concurrent groups.
+    fn solve_group<T: TreeScalar>(
         &self,
         roots: &[usize],
         sx: &SolveShared<'_, T>,
         forking: bool,
+        up: bool,
     ) {
+        let visit = |s: usize| {
+            if up {
+                self.forward_supernode(s, sx)
+            } else {
+                self.backward_supernode(s, sx)
+            }
+        };
         let work: usize = roots.iter().map(|&r| self.subtree_entries[r]).sum();
         if !forking || work < MIN_FORK_SOLVE_ENTRIES {
             for &r in roots {
-                for &s in &self.post[self.first[r]..=self.position[r]] {
-                    self.forward_supernode(s, sx);
+                let subtree = &self.post[self.first[r]..=self.position[r]];
+                if up {
+                    subtree.iter().for_each(|&s| visit(s));
+                } else {
+                    subtree.iter().rev().for_each(|&s| visit(s));
                 }
             }
             return;
         }
-        if roots.len() == 1 {
-            let r = roots[0];
+        if let [r] = *roots {
+            // The chain of single children from r down to `top` (no allocation: down by
+            // the children, up by the parents).
             let mut top = r;
-            while self.children[top].len() == 1 {
-                top = self.children[top][0];
+            while let [child] = self.children[top][..] {
+                top = child;
             }
-            self.forward_group(&self.children[top], sx, forking);
-            let mut s = top;
-            loop {
-                self.forward_supernode(s, sx);
-                match self.parent[s] {
-                    Some(p) if s != r => s = p,
-                    _ => break,
+            if up {
+                self.solve_group(&self.children[top], sx, forking, up);
+                let mut s = top;
+                visit(s);
+                while s != r {
+                    s = self.parent[s].unwrap_or(r);
+                    visit(s);
                 }
+            } else {
+                let mut s = r;
+                visit(s);
+                while s != top {
+                    s = self.children[s][0];
+                    visit(s);
+                }
+                self.solve_group(&self.children[top], sx, forking, up);
             }
             return;
         }
         let (left, right) = self.halves(roots, work);
         rayon::join(
-            || self.forward_group(left, sx, forking),
-            || self.forward_group(right, sx, forking),
-        );
-    }
-
-    /// Backward solve of the subtrees rooted at `roots`: each root's chain first, then
-    /// its children's subtrees.
-    fn backward_group<T: TreeScalar>(
-        &self,
-        roots: &[usize],
-        sx: &SolveShared<'_, T>,
-        forking: bool,
-    ) {
-        let work: usize = roots.iter().map(|&r| self.subtree_entries[r]).sum();
-        if !forking || work < MIN_FORK_SOLVE_ENTRIES {
-            for &r in roots {
-                for &s in self.post[self.first[r]..=self.position[r]].iter().rev() {
-                    self.backward_supernode(s, sx);
-                }
-            }
-            return;
-        }
-        if roots.len() == 1 {
-            let mut s = roots[0];
-            self.backward_supernode(s, sx);
-            while self.children[s].len() == 1 {
-                s = self.children[s][0];
-                self.backward_supernode(s, sx);
-            }
-            self.backward_group(&self.children[s], sx, forking);
-            return;
-        }
-        let (left, right) = self.halves(roots, work);
-        rayon::join(
-            || self.backward_group(left, sx, forking),
-            || self.backward_group(right, sx, forking),
+            || self.solve_group(left, sx, forking, up),
+            || self.solve_group(right, sx, forking, up),
         );
     }
 
@@ -1076,6 +1066,18 @@ mod tests {
         assert!(bitwise_equal(&one, &two));
     }
 
+    /// faer's single-precision factor of the test matrix `m`.
+    fn faer_factor32(
+        sym: &SymbolicCholesky<usize>,
+        m: &crate::linsolve::test_matrices::TestMatrix,
+    ) -> Vec<f32> {
+        let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
+        let mut l = vec![0.0f32; sym.len_val()];
+        let mut mem = faer_scratch::<f32>(sym);
+        faer_factor_into(sym, &m.pattern, &values32, &mut l, &mut mem);
+        l
+    }
+
     /// faer's solve of `L Lᵀ x = b` (original order) with the factor `l`.
     fn faer_solve<T: TreeScalar>(sym: &SymbolicCholesky<usize>, l: &[T], b: &[T]) -> Vec<T> {
         use faer::sparse::linalg::cholesky::LltRef;
@@ -1130,18 +1132,7 @@ mod tests {
         // The subtrees were solved as concurrent tasks: the tree is large enough to fork.
         assert!(tree.subtree_entries[tree.roots[0]] > 4 * MIN_FORK_SOLVE_ENTRIES);
         // Single precision, against faer's single-precision solve of the same factor.
-        let l32: Vec<f32> = {
-            let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
-            let mut l = vec![0.0f32; sym.len_val()];
-            faer_factor_into(
-                &sym,
-                &m.pattern,
-                &values32,
-                &mut l,
-                &mut faer_scratch::<f32>(&sym),
-            );
-            l
-        };
+        let l32 = faer_factor32(&sym, &m);
         let b32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
         let widen = |v: Vec<f32>| v.into_iter().map(f64::from).collect::<Vec<_>>();
         let reference32 = widen(faer_solve(&sym, &l32, &b32));
@@ -1160,15 +1151,7 @@ mod tests {
             let m = hex_elasticity(k, k, k, 1.0, 0.3);
             let (sym, perm) = symbolic(&m.pattern);
             let tree = TreeCholesky::new(&m.pattern, &perm, supernodal(&sym)).unwrap();
-            let values32: Vec<f32> = m.values.iter().map(|&v| v as f32).collect();
-            let mut l = vec![0.0f32; sym.len_val()];
-            faer_factor_into(
-                &sym,
-                &m.pattern,
-                &values32,
-                &mut l,
-                &mut faer_scratch::<f32>(&sym),
-            );
+            let l = faer_factor32(&sym, &m);
             let b: Vec<f32> = (0..m.pattern.n)
                 .map(|i| ((i * 7919) % 13) as f32 - 6.0)
                 .collect();
