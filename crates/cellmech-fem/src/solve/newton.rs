@@ -544,7 +544,7 @@ impl Problem {
     }
 
     /// Factorises the assembled tangent and solves for the correction, to `tolerance` of
-    /// its size ([`LinearSolver::solve_to_in_place`]; 0: in full).
+    /// its size ([`crate::linsolve::LinearSolver::solve_to_in_place`]; 0: in full).
     fn factorize_and_solve(&mut self, tolerance: f64) -> Result<(), FailureReason> {
         let (solver, work) = (&mut self.solver, &mut self.work);
         let (factor, start, factored, solved) = self.pool.install(|| {
