@@ -574,6 +574,7 @@ impl LinearSolver for FaerSparseSolver {
         };
         let tree = TreeCholesky::new(pattern, &factor_perm, sym).ok();
         let tree_len = |len: usize| if tree.is_some() { len } else { 0 };
+        let tree_scratch = tree.as_ref().map_or(0, TreeCholesky::solve_scratch_len);
         let info = AnalysisInfo {
             tree_factorisation: tree.is_some(),
             ordering: self.ordering,
@@ -625,16 +626,9 @@ impl LinearSolver for FaerSparseSolver {
             bk_inv: vec![0; n],
             symbolic,
             tree_y: vec![0.0; tree_len(n)],
-            tree_y32: vec![0.0; if self.mixed { tree_len(n) } else { 0 }],
-            tree_products: vec![0.0; tree.as_ref().map_or(0, |t| t.solve_scratch_len())],
-            tree_products32: vec![
-                0.0;
-                if self.mixed {
-                    tree.as_ref().map_or(0, |t| t.solve_scratch_len())
-                } else {
-                    0
-                }
-            ],
+            tree_y32: vec![0.0; mixed_len(tree_len(n))],
+            tree_products: vec![0.0; tree_scratch],
+            tree_products32: vec![0.0; mixed_len(tree_scratch)],
             tree_perm: if tree.is_some() {
                 factor_perm
             } else {
