@@ -121,27 +121,63 @@ fn indefinite_matrix_falls_back_to_ldlt_and_reports_the_inertia() {
     assert!(res < 1e-10, "residual {res:e}");
 }
 
-#[test]
-fn fallback_policy_starts_with_ldlt_after_a_failure_and_returns_to_cholesky() {
+/// The methods a sequence of definite (`true`) and indefinite matrices is factorised with.
+fn methods_of(solver: &mut FaerSparseSolver, definite: &[bool]) -> Vec<FactorMethod> {
     let spd = hex_elasticity(4, 3, 3, 1.0, 0.3);
     let diag_mean = (0..spd.pattern.n)
         .map(|c| spd.values[spd.pattern.col_ptr[c]])
         .sum::<f64>()
         / spd.pattern.n as f64;
     let indefinite = shift_diagonal(&spd, 0.37 * diag_mean);
-    let mut solver = FaerSparseSolver::new(2);
     solver.analyze(&spd.pattern).expect("analyze");
-    let methods: Vec<FactorMethod> = [&spd, &indefinite, &spd, &spd]
+    definite
         .iter()
-        .map(|m| {
-            let (info, res, _) = solve(&mut solver, m);
+        .map(|&d| {
+            let m = if d { &spd } else { &indefinite };
+            let (info, res, _) = solve(solver, m);
             assert!(res < 1e-10, "residual {res:e} with {:?}", info.method);
             info.method
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn after_up_to_three_indefinite_matrices_a_definite_one_gets_cholesky_again() {
     use FactorMethod::{Cholesky, Ldlt};
-    // Second SPD call: LBLᵀ first (policy), finds no negative pivot, so the third uses LLᵀ.
-    assert_eq!(methods, vec![Cholesky, Ldlt, Ldlt, Cholesky]);
+    for mixed in [false, true] {
+        let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
+        let methods = methods_of(&mut solver, &[true, false, true, true]);
+        assert_eq!(methods, vec![Cholesky, Ldlt, Cholesky, Cholesky], "mixed {mixed}");
+        let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
+        let methods = methods_of(&mut solver, &[false, false, false, true]);
+        assert_eq!(methods, vec![Ldlt, Ldlt, Ldlt, Cholesky], "mixed {mixed}");
+        // A definite matrix tried in single precision and resolved there: no fallback.
+        if mixed {
+            let stats = solver.mixed_precision_stats();
+            assert_eq!((stats.single_factorizations, stats.fallbacks), (1, 0));
+        }
+    }
+}
+
+#[test]
+fn a_long_run_of_indefinite_matrices_tries_cholesky_only_at_powers_of_two() {
+    use FactorMethod::{Cholesky, Ldlt};
+    for mixed in [false, true] {
+        // Five indefinite in a row: the sixth matrix (definite) is not tried with Cholesky
+        // (streak 5), the pivoted factorisation finds it definite, and the next is Cholesky.
+        let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
+        let seq = [false, false, false, false, false, true, true];
+        let methods = methods_of(&mut solver, &seq);
+        assert_eq!(
+            methods,
+            vec![Ldlt, Ldlt, Ldlt, Ldlt, Ldlt, Ldlt, Cholesky],
+            "mixed {mixed}"
+        );
+        // Four in a row: the fifth (streak 4, a power of two) is tried, and is Cholesky.
+        let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
+        let methods = methods_of(&mut solver, &[false, false, false, false, true]);
+        assert_eq!(methods, vec![Ldlt, Ldlt, Ldlt, Ldlt, Cholesky], "mixed {mixed}");
+    }
 }
 
 #[test]
@@ -516,17 +552,15 @@ fn mixed_precision_on_an_indefinite_matrix_takes_the_pivoted_path() {
     assert_eq!(info.method, FactorMethod::Ldlt);
     assert!(info.negative_pivots.unwrap_or(0) > 0);
     assert!(residual < 1e-10, "residual {residual:e}");
-    // Indefiniteness is no failure of single precision: once the pivoted factorisation
-    // has found a matrix positive definite again (the fallback policy), the next one is
-    // factorised in single precision.
+    // Indefiniteness is no failure of single precision: the next positive definite
+    // matrix is factorised in single precision (the fallback policy).
     assert_eq!(mixed.mixed_precision_stats().fallbacks, 0);
     let spd = hex_elasticity(5, 5, 5, 1.0, 0.3);
-    let (info, _, _) = solve(&mut mixed, &spd);
-    assert_eq!(info.method, FactorMethod::Ldlt);
     let (info, residual, _) = solve(&mut mixed, &spd);
     assert_eq!(info.method, FactorMethod::Cholesky);
     assert!(residual < 1e-6, "residual {residual:e}");
     assert_eq!(mixed.mixed_precision_stats().single_factorizations, 1);
+    assert_eq!(mixed.mixed_precision_stats().fallbacks, 0);
 }
 
 #[test]
