@@ -182,6 +182,9 @@ pub struct FaerSparseSolver {
     indefinite_streak: usize,
     /// Factorise positive definite matrices in single precision first.
     mixed: bool,
+    /// Pivoted factorisations by faer's sequential numeric step instead of the tree's
+    /// ([`FaerSparseSolver::with_faer_pivoted`]).
+    faer_pivoted: bool,
     /// Single precision failed once on a positive definite matrix (pivot or conjugate
     /// gradients): double precision from then on.
     mixed_off: bool,
@@ -236,6 +239,7 @@ impl FaerSparseSolver {
             numeric: None,
             indefinite_streak: 0,
             mixed: false,
+            faer_pivoted: false,
             mixed_off: false,
             mixed_max_iterations: MIXED_MAX_ITERATIONS,
             stats: MixedPrecisionStats::default(),
@@ -254,6 +258,14 @@ impl FaerSparseSolver {
     /// the solver stays in double precision from then on. See `docs/linear-solver.md`, "Mixed precision".
     pub fn with_mixed_precision(mut self, on: bool) -> Self {
         self.mixed = on;
+        self
+    }
+
+    /// Pivoted (indefinite) factorisations by faer's sequential supernodal Bunch–Kaufman
+    /// instead of the same algorithm on the elimination tree (the default; both write the
+    /// same layout, which faer's solve uses). For comparisons and benchmarks.
+    pub fn with_faer_pivoted(mut self, on: bool) -> Self {
+        self.faer_pivoted = on;
         self
     }
 
@@ -379,26 +391,40 @@ impl FaerSparseSolver {
 
     /// Returns the factor info and whether the matrix proved positive definite.
     ///
-    /// Always sequential: faer's threaded intranode Bunch–Kaufman cost more than it gained
-    /// on 2 threads (the adherent apex with its indefinite tangents: 122.2 s wall and 14 s of
-    /// system time threaded, 105.4 s sequential; docs/performance.md, "Bunch–Kaufman on one
-    /// thread").
+    /// On the elimination tree ([`TreeCholesky::factorize_pivoted`]) when there is one:
+    /// faer's own supernodal Bunch–Kaufman runs its supernodes in order, and its threaded
+    /// dense kernels cost more than they gained on 2 threads (the adherent apex: 122.2 s
+    /// wall and 14 s of system time threaded, 105.4 s sequential; docs/performance.md,
+    /// "Bunch–Kaufman on one thread"), so without a tree it runs sequentially.
     fn try_lblt(&mut self, values: &[f64]) -> Result<(FactorInfo, bool), String> {
-        let par = Par::Seq;
+        let threads = self.tree_threads(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
-        let mat = csc_ref(&a.pattern, values);
-        let mut stack = MemStack::new(&mut a.mem);
-        a.symbolic.factorize_numeric_intranode_lblt(
-            &mut a.l_values,
-            &mut a.subdiag,
-            &mut a.bk_fwd,
-            &mut a.bk_inv,
-            mat,
-            Side::Lower,
-            par,
-            &mut stack,
-            Spec::default(),
-        );
+        match a.tree.as_ref() {
+            Some(tree) if !self.faer_pivoted => tree.factorize_pivoted(
+                &mut a.l_values,
+                &mut a.subdiag,
+                &mut a.bk_fwd,
+                &mut a.bk_inv,
+                values,
+                threads,
+                &a.tree_workspaces,
+            )?,
+            _ => {
+                let mat = csc_ref(&a.pattern, values);
+                let mut stack = MemStack::new(&mut a.mem);
+                a.symbolic.factorize_numeric_intranode_lblt(
+                    &mut a.l_values,
+                    &mut a.subdiag,
+                    &mut a.bk_fwd,
+                    &mut a.bk_inv,
+                    mat,
+                    Side::Lower,
+                    Par::Seq,
+                    &mut stack,
+                    Spec::default(),
+                );
+            }
+        }
         let sym = supernodal(&a.symbolic)?;
         let perm = faer::perm::PermRef::new_checked(&a.bk_fwd, &a.bk_inv, a.n);
         let f = SupernodalIntranodeLbltRef::new(sym, &a.l_values, &a.subdiag, perm);

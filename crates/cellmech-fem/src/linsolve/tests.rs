@@ -147,7 +147,11 @@ fn after_up_to_three_indefinite_matrices_a_definite_one_gets_cholesky_again() {
     for mixed in [false, true] {
         let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
         let methods = methods_of(&mut solver, &[true, false, true, true]);
-        assert_eq!(methods, vec![Cholesky, Ldlt, Cholesky, Cholesky], "mixed {mixed}");
+        assert_eq!(
+            methods,
+            vec![Cholesky, Ldlt, Cholesky, Cholesky],
+            "mixed {mixed}"
+        );
         let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
         let methods = methods_of(&mut solver, &[false, false, false, true]);
         assert_eq!(methods, vec![Ldlt, Ldlt, Ldlt, Cholesky], "mixed {mixed}");
@@ -176,7 +180,11 @@ fn a_long_run_of_indefinite_matrices_tries_cholesky_only_at_powers_of_two() {
         // Four in a row: the fifth (streak 4, a power of two) is tried, and is Cholesky.
         let mut solver = FaerSparseSolver::new(2).with_mixed_precision(mixed);
         let methods = methods_of(&mut solver, &[false, false, false, false, true]);
-        assert_eq!(methods, vec![Ldlt, Ldlt, Ldlt, Ldlt, Cholesky], "mixed {mixed}");
+        assert_eq!(
+            methods,
+            vec![Ldlt, Ldlt, Ldlt, Ldlt, Cholesky],
+            "mixed {mixed}"
+        );
     }
 }
 

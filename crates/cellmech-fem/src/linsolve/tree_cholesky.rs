@@ -25,9 +25,11 @@
 use std::sync::Mutex;
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::lblt::factor as lblt;
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
-use faer::{Accum, MatMut, MatRef, Par, Spec};
+use faer::{Accum, ColMut, MatMut, MatRef, Par, Spec};
 
 use super::SparsityPattern;
 
@@ -160,6 +162,9 @@ pub(crate) struct TreeCholesky {
     update_flops: Vec<f64>,
     /// Largest update product (rows × columns) and largest supernode width.
     max_product: usize,
+    /// Largest `columns × width` of an update's rows scaled by its source's block diagonal
+    /// (the pivoted factorisation's `L_d D_d`).
+    max_scaled: usize,
     max_width: usize,
     /// Longest supernode pattern (rows below the diagonal block).
     max_pattern: usize,
@@ -177,6 +182,8 @@ pub(crate) struct Workspace<T> {
 struct UpdateScratch<T> {
     product: Vec<T>,
     local: Vec<usize>,
+    /// `L_d D_d` of an update's columns (pivoted factorisation only; sized at first use).
+    scaled: Vec<T>,
 }
 
 /// Workspaces kept between factorisations (one per concurrent task).
@@ -242,6 +249,17 @@ struct Context<'a, T> {
     forking: bool,
     /// The dense kernels' parallelism for the large supernodes of the top chain.
     dense: Par,
+    /// Where the pivoted factorisation writes its pivots (`None`: Cholesky).
+    pivots: Option<Pivots<T>>,
+}
+
+/// The outputs of the pivoted factorisation besides L, in faer's intranode LBLᵀ layout:
+/// the sub-diagonal of B's 2x2 blocks, and the permutation inside each supernode (global
+/// indices). Each supernode's task writes its own columns' range.
+struct Pivots<T> {
+    subdiag: SharedValues<T>,
+    forward: SharedValues<usize>,
+    inverse: SharedValues<usize>,
 }
 
 impl<T: Send> Context<'_, T> {
@@ -313,7 +331,7 @@ impl TreeCholesky {
         // Updates: each run of a pattern's rows inside one ancestor's columns.
         let mut lists: Vec<Vec<(usize, usize, usize)>> = vec![Vec::new(); ns];
         let mut parent = vec![None; ns];
-        let (mut max_product, mut max_width) = (0usize, 0usize);
+        let (mut max_product, mut max_width, mut max_scaled) = (0usize, 0usize, 0usize);
         for d in 0..ns {
             let p = &pat[pat_ptr[d]..pat_ptr[d + 1]];
             let mut i0 = 0;
@@ -333,6 +351,7 @@ impl TreeCholesky {
                 }
                 lists[s].push((d, i0, i1));
                 max_product = max_product.max((p.len() - i0).min(ROW_BLOCK) * (i1 - i0));
+                max_scaled = max_scaled.max((i1 - i0) * (end[d] - begin[d]));
                 i0 = i1;
             }
             max_width = max_width.max(end[d] - begin[d]);
@@ -432,6 +451,7 @@ impl TreeCholesky {
             subtree_entries,
             update_flops,
             max_product,
+            max_scaled,
             max_width,
             max_pattern,
         })
@@ -449,12 +469,27 @@ impl TreeCholesky {
         let req = StackReq::any_of(&[
             cholesky_in_place_scratch::<T>(self.max_width, Par::Seq, Spec::default()),
             cholesky_in_place_scratch::<T>(self.max_width, Par::rayon(0), Spec::default()),
+            lblt::cholesky_in_place_scratch::<usize, T>(self.max_width, Par::Seq, Spec::default())
+                .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
+                    self.max_pattern,
+                    self.max_width,
+                )),
+            lblt::cholesky_in_place_scratch::<usize, T>(
+                self.max_width,
+                Par::rayon(0),
+                Spec::default(),
+            )
+            .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
+                self.max_pattern,
+                self.max_width,
+            )),
         ]);
         Ok(Workspace {
             map: vec![usize::MAX; self.n],
             scratch: UpdateScratch {
                 product: vec![T::ZERO; self.max_product],
                 local: vec![0; self.max_pattern],
+                scaled: Vec::new(),
             },
             mem: MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?,
         })
@@ -477,6 +512,58 @@ impl TreeCholesky {
         threads: usize,
         pool: &WorkspacePool<T>,
     ) -> Result<(), String> {
+        self.run(l, values, threads, pool, None)
+    }
+
+    /// The pivoted factorisation `P A Pᵀ = L B Lᵀ` of the (symmetric, possibly indefinite)
+    /// matrix with lower-triangle `values`, into faer's intranode Bunch–Kaufman layout, so
+    /// that faer's `SupernodalIntranodeLbltRef` solves with it: `l` (unit lower triangular
+    /// blocks, B's diagonal on their diagonal), `subdiag` (B's 2x2 blocks' sub-diagonal,
+    /// zero for 1x1 pivots) and the permutation `forward`/`inverse` (pivoting inside each
+    /// supernode only). The same left-looking algorithm as faer's sequential
+    /// `factorize_supernodal_numeric_intranode_lblt` (each descendant's update is
+    /// `L_d[rows] (L_d[columns] B_d)ᵀ`, and the rows of a descendant stay in the unpivoted
+    /// order, which faer's solve maps through `inverse`), scheduled on the tree like the
+    /// Cholesky. Pivot sizes are the caller's to check (`l`'s diagonal and `subdiag`).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn factorize_pivoted<T: TreeScalar>(
+        &self,
+        l: &mut [T],
+        subdiag: &mut [T],
+        forward: &mut [usize],
+        inverse: &mut [usize],
+        values: &[T],
+        threads: usize,
+        pool: &WorkspacePool<T>,
+    ) -> Result<(), String> {
+        if subdiag.len() != self.n || forward.len() != self.n || inverse.len() != self.n {
+            return Err("pivot storage of the wrong size".into());
+        }
+        let pivots = Pivots {
+            subdiag: SharedValues {
+                ptr: subdiag.as_mut_ptr(),
+                len: subdiag.len(),
+            },
+            forward: SharedValues {
+                ptr: forward.as_mut_ptr(),
+                len: forward.len(),
+            },
+            inverse: SharedValues {
+                ptr: inverse.as_mut_ptr(),
+                len: inverse.len(),
+            },
+        };
+        self.run(l, values, threads, pool, Some(pivots))
+    }
+
+    fn run<T: TreeScalar>(
+        &self,
+        l: &mut [T],
+        values: &[T],
+        threads: usize,
+        pool: &WorkspacePool<T>,
+        pivots: Option<Pivots<T>>,
+    ) -> Result<(), String> {
         if l.len() != self.val_ptr[self.val_ptr.len() - 1] {
             return Err("factor storage of the wrong size".into());
         }
@@ -496,6 +583,7 @@ impl TreeCholesky {
             } else {
                 Par::Seq
             },
+            pivots,
         };
         let result = self.group(&self.roots, &cx, &mut ws);
         Self::give_back(pool, ws);
@@ -588,6 +676,9 @@ impl TreeCholesky {
             map[r] = usize::MAX;
         }
         let mat = MatMut::from_column_major_slice_mut(block, m, w);
+        if let Some(pivots) = &cx.pivots {
+            return Self::pivoted_block(b, e, mat, pivots, mem, par);
+        }
         let (mut top, bottom) = mat.split_at_row_mut(w);
         cholesky_in_place(
             top.as_mut(),
@@ -603,6 +694,119 @@ impl TreeCholesky {
             par,
         );
         Ok(())
+    }
+
+    /// The pivoted supernode `b..e` whose block `mat` holds A's entries minus every
+    /// descendant's update: Bunch–Kaufman on the diagonal block, the rows below permuted
+    /// the same way and solved against `L` and then `B` (faer's intranode step).
+    fn pivoted_block<T: TreeScalar>(
+        b: usize,
+        e: usize,
+        mat: MatMut<'_, T>,
+        pivots: &Pivots<T>,
+        mem: &mut MemBuffer,
+        par: Par,
+    ) -> Result<(), String> {
+        let w = e - b;
+        let (mut top, mut bottom) = mat.split_at_row_mut(w);
+        // SAFETY: columns b..e are this task's supernode.
+        let (subdiag, forward, inverse) = unsafe {
+            (
+                pivots.subdiag.block_mut(b..e),
+                pivots.forward.block_mut(b..e),
+                pivots.inverse.block_mut(b..e),
+            )
+        };
+        let mut stack = MemStack::new(mem);
+        {
+            let (_, perm) = lblt::cholesky_in_place(
+                top.rb_mut(),
+                ColMut::from_slice_mut(subdiag).as_diagonal_mut(),
+                forward,
+                inverse,
+                par,
+                &mut stack,
+                Spec::default(),
+            );
+            faer::perm::permute_cols_in_place(bottom.rb_mut(), perm, &mut stack);
+        }
+        for j in 0..w {
+            for i in 0..j {
+                top[(i, j)] = T::ZERO;
+            }
+        }
+        for p in forward.iter_mut().chain(inverse.iter_mut()) {
+            *p += b;
+        }
+        faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
+            top.rb(),
+            bottom.rb_mut().transpose_mut(),
+            par,
+        );
+        // The rows below times B⁻¹, block by block.
+        let rows = bottom.nrows();
+        let mut j = 0;
+        while j < w {
+            if subdiag[j] == T::ZERO {
+                let d = T::ONE / top[(j, j)];
+                for i in 0..rows {
+                    bottom[(i, j)] = bottom[(i, j)] * d;
+                }
+                j += 1;
+            } else {
+                // [x_k x_k+1] [[a, c], [c, d]]⁻¹, scaled by 1/c as faer does.
+                let c = T::ONE / subdiag[j];
+                let a = c * top[(j, j)];
+                let d = c * top[(j + 1, j + 1)];
+                let denom = T::ONE / (a * d - T::ONE);
+                for i in 0..rows {
+                    let xk = bottom[(i, j)] * c;
+                    let xk1 = bottom[(i, j + 1)] * c;
+                    bottom[(i, j)] = (d * xk - xk1) * denom;
+                    bottom[(i, j + 1)] = (a * xk1 - xk) * denom;
+                }
+                j += 2;
+            }
+        }
+        Ok(())
+    }
+
+    /// `out` (`nc × w_d`, column-major) = the rows `w_d + j0..` of descendant `d`'s finished
+    /// block `ld` times its block diagonal B_d (1x1 pivots on `ld`'s diagonal, 2x2 blocks
+    /// with their sub-diagonal in `pivots`).
+    fn scale_by_block_diagonal<T: TreeScalar>(
+        &self,
+        d: usize,
+        ld: MatRef<'_, T>,
+        j0: usize,
+        nc: usize,
+        pivots: &Pivots<T>,
+        out: &mut [T],
+    ) {
+        let b = self.begin[d];
+        let wd = self.end[d] - b;
+        let rows = ld.subrows(wd + j0, nc);
+        let mut k = 0;
+        while k < wd {
+            // SAFETY: d is finished (a descendant of the supernode being updated).
+            let sub = unsafe { pivots.subdiag.get(b + k) };
+            if sub == T::ZERO {
+                let a = ld[(k, k)];
+                for (i, o) in out[k * nc..(k + 1) * nc].iter_mut().enumerate() {
+                    *o = rows[(i, k)] * a;
+                }
+                k += 1;
+            } else {
+                let (a, c) = (ld[(k, k)], ld[(k + 1, k + 1)]);
+                let (left, right) = out[k * nc..(k + 2) * nc].split_at_mut(nc);
+                for i in 0..nc {
+                    let (x, y) = (rows[(i, k)], rows[(i, k + 1)]);
+                    left[i] = x * a + y * sub;
+                    right[i] = y * c + x * sub;
+                }
+                k += 2;
+            }
+        }
     }
 
     /// Subtracts every descendant's update from the columns `lo..hi` of supernode `s`'s
@@ -669,6 +873,18 @@ impl TreeCholesky {
                 *l = if row < e { row - b } else { map[row] };
             }
             let consecutive = local[nr - 1] - local[0] == nr - 1;
+            // The right factor: L_d's rows that are these columns, times B_d when pivoted.
+            let columns = match &cx.pivots {
+                None => ld.subrows(wd + j0, nc),
+                Some(pivots) => {
+                    if scratch.scaled.len() < self.max_scaled {
+                        scratch.scaled.resize(self.max_scaled, T::ZERO);
+                    }
+                    let scaled = &mut scratch.scaled[..nc * wd];
+                    self.scale_by_block_diagonal(d, ld, j0, nc, pivots, scaled);
+                    MatRef::from_column_major_slice(&scratch.scaled[..nc * wd], nc, wd)
+                }
+            };
             // In blocks of rows (a bounded buffer); row r meets the columns c ≤ r.
             let mut r0 = 0;
             while r0 < nr {
@@ -679,7 +895,7 @@ impl TreeCholesky {
                     MatMut::from_column_major_slice_mut(product, rb, ncb),
                     Accum::Replace,
                     ld.subrows(wd + j0 + r0, rb),
-                    ld.subrows(wd + j0, ncb).transpose(),
+                    columns.subrows(0, ncb).transpose(),
                     T::ONE,
                     Par::Seq,
                 );
@@ -878,8 +1094,8 @@ mod tests {
     use crate::linsolve::ordering::{inverse_permutation, nested_dissection};
     use crate::linsolve::test_matrices::hex_elasticity;
     use faer::sparse::linalg::cholesky::{
-        factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
-        SymmetricOrdering,
+        factorize_symbolic_cholesky, supernodal::SupernodalLltRef, CholeskySymbolicParams,
+        IntranodeLbltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     };
     use faer::sparse::linalg::SupernodalThreshold;
     use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -1166,6 +1382,182 @@ mod tests {
         }
     }
 
+    /// The pivoted factor of `values` by faer's sequential supernodal Bunch–Kaufman:
+    /// (L, sub-diagonal, forward and inverse permutation).
+    fn faer_pivoted(
+        sym: &SymbolicCholesky<usize>,
+        pattern: &SparsityPattern,
+        values: &[f64],
+    ) -> (Vec<f64>, Vec<f64>, Vec<usize>, Vec<usize>) {
+        let n = pattern.n;
+        let (mut l, mut sub, mut fwd, mut inv) = (
+            vec![0.0; sym.len_val()],
+            vec![0.0; n],
+            vec![0; n],
+            vec![0; n],
+        );
+        let mut mem = MemBuffer::new(
+            sym.factorize_numeric_intranode_lblt_scratch::<f64>(Par::Seq, Spec::default()),
+        );
+        let structure =
+            SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
+        sym.factorize_numeric_intranode_lblt(
+            &mut l,
+            &mut sub,
+            &mut fwd,
+            &mut inv,
+            SparseColMatRef::new(structure, values),
+            Side::Lower,
+            Par::Seq,
+            &mut MemStack::new(&mut mem),
+            Spec::default(),
+        );
+        (l, sub, fwd, inv)
+    }
+
+    /// ‖A x − b‖ / ‖b‖ for x from the pivoted factor (faer's solve, no refinement).
+    fn pivoted_residual(
+        sym: &SymbolicCholesky<usize>,
+        pattern: &SparsityPattern,
+        values: &[f64],
+        factor: &(Vec<f64>, Vec<f64>, Vec<usize>, Vec<usize>),
+    ) -> f64 {
+        let n = pattern.n;
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 101) as f64 / 50.0 - 1.0)
+            .collect();
+        let mut x = b.clone();
+        let perm = faer::perm::PermRef::new_checked(&factor.2, &factor.3, n);
+        let f = IntranodeLbltRef::new(sym, &factor.0, &factor.1, perm);
+        let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
+        f.solve_in_place_with_conj(
+            faer::Conj::No,
+            MatMut::from_column_major_slice_mut(&mut x, n, 1),
+            Par::Seq,
+            &mut MemStack::new(&mut mem),
+        );
+        let mut ax = vec![0.0; n];
+        pattern.sym_mul(values, &x, &mut ax);
+        let r: f64 = ax
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| (p - q).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        r / b.iter().map(|v| v * v).sum::<f64>().sqrt()
+    }
+
+    /// The inertia of B: (negative eigenvalues, 2x2 blocks).
+    fn inertia(sym: &SymbolicCholesky<usize>, l: &[f64], sub: &[f64]) -> (usize, usize) {
+        let sn = supernodal(sym);
+        let f = SupernodalLltRef::new(sn, l);
+        let (mut negative, mut blocks) = (0, 0);
+        for s in 0..sn.n_supernodes() {
+            let node = f.supernode(s);
+            let d = node.val();
+            let start = sn.supernode_begin()[s];
+            let mut k = 0;
+            while k < d.ncols() {
+                let c = sub[start + k];
+                if c == 0.0 {
+                    negative += usize::from(d[(k, k)] < 0.0);
+                    k += 1;
+                } else {
+                    let (p, q) = (d[(k, k)], d[(k + 1, k + 1)]);
+                    // det < 0: one negative eigenvalue; else both have the sign of the trace.
+                    let det = p * q - c * c;
+                    negative += if det < 0.0 {
+                        1
+                    } else if p + q < 0.0 {
+                        2
+                    } else {
+                        0
+                    };
+                    blocks += 1;
+                    k += 2;
+                }
+            }
+        }
+        (negative, blocks)
+    }
+
+    #[test]
+    fn the_pivoted_tree_factor_is_faers_and_the_same_bits_on_one_and_two_threads() {
+        let (m, sym, tree) = grid(11, 10, 9);
+        let mut values = m.values.clone();
+        let mean = (0..m.pattern.n)
+            .map(|c| values[m.pattern.col_ptr[c]])
+            .sum::<f64>()
+            / m.pattern.n as f64;
+        for c in 0..m.pattern.n {
+            values[m.pattern.col_ptr[c]] -= 0.3 * mean;
+        }
+        let reference = faer_pivoted(&sym, &m.pattern, &values);
+        let pool = WorkspacePool::default();
+        let run = |threads: usize| {
+            in_pool(threads, || {
+                let n = m.pattern.n;
+                let (mut l, mut sub, mut fwd, mut inv) = (
+                    vec![0.0; sym.len_val()],
+                    vec![0.0; n],
+                    vec![0; n],
+                    vec![0; n],
+                );
+                tree.factorize_pivoted(
+                    &mut l, &mut sub, &mut fwd, &mut inv, &values, threads, &pool,
+                )
+                .unwrap();
+                (l, sub, fwd, inv)
+            })
+        };
+        let one = run(1);
+        let two = run(2);
+        assert!(bitwise_equal(&one.0, &two.0) && bitwise_equal(&one.1, &two.1));
+        assert_eq!((&one.2, &one.3), (&two.2, &two.3));
+        // The same pivots as faer's (the same algorithm), the same values to round-off.
+        assert_eq!(one.2, reference.2, "permutation");
+        let blocks = one.1.iter().filter(|&&c| c != 0.0).count();
+        assert!(blocks > 0, "the shift must make 2x2 pivots happen");
+        assert!(max_relative_difference(&one.0, &reference.0) < 1e-12);
+        assert!(max_relative_difference(&one.1, &reference.1) < 1e-12);
+        let (negative, _) = inertia(&sym, &one.0, &one.1);
+        assert_eq!(negative, inertia(&sym, &reference.0, &reference.1).0);
+        assert!(negative > 100, "{negative} negative eigenvalues");
+        let residual = pivoted_residual(&sym, &m.pattern, &values, &one);
+        let faers = pivoted_residual(&sym, &m.pattern, &values, &reference);
+        assert!(
+            residual < 1e-9 && residual < 10.0 * faers,
+            "{residual:e} (faer {faers:e})"
+        );
+    }
+
+    #[test]
+    fn the_pivoted_tree_factor_of_a_definite_matrix_has_no_negative_pivot() {
+        let (m, sym, tree) = grid(9, 8, 8);
+        let n = m.pattern.n;
+        let (mut l, mut sub, mut fwd, mut inv) = (
+            vec![0.0; sym.len_val()],
+            vec![0.0; n],
+            vec![0; n],
+            vec![0; n],
+        );
+        in_pool(2, || {
+            tree.factorize_pivoted(
+                &mut l,
+                &mut sub,
+                &mut fwd,
+                &mut inv,
+                &m.values,
+                2,
+                &WorkspacePool::default(),
+            )
+        })
+        .unwrap();
+        assert_eq!(inertia(&sym, &l, &sub).0, 0);
+        let residual = pivoted_residual(&sym, &m.pattern, &m.values, &(l, sub, fwd, inv));
+        assert!(residual < 1e-10, "{residual:e}");
+    }
+
     #[test]
     fn an_indefinite_matrix_fails() {
         let (m, sym, tree) = grid(9, 8, 8);
@@ -1181,6 +1573,51 @@ mod tests {
         assert!(tree
             .factorize(&mut l, &values, 2, &WorkspacePool::default())
             .is_err());
+    }
+
+    #[test]
+    #[ignore = "times the pivoted tree factorisation against faer's sequential one"]
+    fn time_pivoted_tree_against_faer() {
+        use std::time::Instant;
+        for k in [14, 18, 22] {
+            let (m, sym, tree) = grid(k, k, k);
+            let n = m.pattern.n;
+            let mut values = m.values.clone();
+            let mean = (0..n).map(|c| values[m.pattern.col_ptr[c]]).sum::<f64>() / n as f64;
+            for c in 0..n {
+                values[m.pattern.col_ptr[c]] -= 0.05 * mean;
+            }
+            let pool = WorkspacePool::default();
+            let (mut l, mut sub, mut fwd, mut inv) = (
+                vec![0.0; sym.len_val()],
+                vec![0.0; n],
+                vec![0; n],
+                vec![0; n],
+            );
+            let mut times = [f64::INFINITY; 3];
+            for _ in 0..3 {
+                for (slot, threads) in [(0, 1), (1, 2)] {
+                    let t = Instant::now();
+                    in_pool(threads, || {
+                        tree.factorize_pivoted(
+                            &mut l, &mut sub, &mut fwd, &mut inv, &values, threads, &pool,
+                        )
+                    })
+                    .unwrap();
+                    times[slot] = times[slot].min(t.elapsed().as_secs_f64());
+                }
+                let t = Instant::now();
+                let _ = faer_pivoted(&sym, &m.pattern, &values);
+                times[2] = times[2].min(t.elapsed().as_secs_f64());
+            }
+            eprintln!(
+                "n {n}: faer sequential {:.4} s, tree 1 thread {:.4} s, 2 threads {:.4} s; {} negative",
+                times[2],
+                times[0],
+                times[1],
+                inertia(&sym, &l, &sub).0
+            );
+        }
     }
 
     #[test]
