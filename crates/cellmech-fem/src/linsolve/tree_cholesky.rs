@@ -175,6 +175,9 @@ pub(crate) struct Workspace<T> {
     map: Vec<usize>,
     scratch: UpdateScratch<T>,
     mem: MemBuffer,
+    /// The pivoted factorisation's dense kernels' stack (made at its first use: the
+    /// Cholesky never needs it).
+    pivot_mem: Option<MemBuffer>,
 }
 
 /// Scratch of one task's updates: the product buffer, and where each row of the update
@@ -469,20 +472,6 @@ impl TreeCholesky {
         let req = StackReq::any_of(&[
             cholesky_in_place_scratch::<T>(self.max_width, Par::Seq, Spec::default()),
             cholesky_in_place_scratch::<T>(self.max_width, Par::rayon(0), Spec::default()),
-            lblt::cholesky_in_place_scratch::<usize, T>(self.max_width, Par::Seq, Spec::default())
-                .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
-                    self.max_pattern,
-                    self.max_width,
-                )),
-            lblt::cholesky_in_place_scratch::<usize, T>(
-                self.max_width,
-                Par::rayon(0),
-                Spec::default(),
-            )
-            .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
-                self.max_pattern,
-                self.max_width,
-            )),
         ]);
         Ok(Workspace {
             map: vec![usize::MAX; self.n],
@@ -492,6 +481,7 @@ impl TreeCholesky {
                 scaled: Vec::new(),
             },
             mem: MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?,
+            pivot_mem: None,
         })
     }
 
@@ -670,13 +660,40 @@ impl TreeCholesky {
                 column[local] += values[self.a_src[idx]];
             }
         }
-        let Workspace { map, scratch, mem } = ws;
+        let Workspace {
+            map,
+            scratch,
+            mem,
+            pivot_mem,
+        } = ws;
         self.updates(s, 0, w, MAX_UPDATE_SPLITS, block, map, scratch, cx)?;
         for &r in pattern {
             map[r] = usize::MAX;
         }
         let mat = MatMut::from_column_major_slice_mut(block, m, w);
         if let Some(pivots) = &cx.pivots {
+            if pivot_mem.is_none() {
+                let req = StackReq::any_of(&[
+                    lblt::cholesky_in_place_scratch::<usize, T>(
+                        self.max_width,
+                        Par::Seq,
+                        Spec::default(),
+                    ),
+                    lblt::cholesky_in_place_scratch::<usize, T>(
+                        self.max_width,
+                        Par::rayon(0),
+                        Spec::default(),
+                    ),
+                ])
+                .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
+                    self.max_pattern,
+                    self.max_width,
+                ));
+                *pivot_mem = Some(
+                    MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?,
+                );
+            }
+            let mem = pivot_mem.as_mut().ok_or("no pivot workspace")?;
             return Self::pivoted_block(b, e, mat, pivots, mem, par);
         }
         let (mut top, bottom) = mat.split_at_row_mut(w);
