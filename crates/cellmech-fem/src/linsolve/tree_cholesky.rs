@@ -39,16 +39,47 @@ pub(crate) trait TreeScalar:
 {
     const ZERO: Self;
     const ONE: Self;
+    fn to_f64(self) -> f64;
 }
 
 impl TreeScalar for f64 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
+    fn to_f64(self) -> f64 {
+        self
+    }
 }
 
 impl TreeScalar for f32 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+/// Why a factorisation on the tree stopped.
+#[derive(Debug)]
+pub(crate) struct FactorFailure {
+    pub(crate) message: String,
+    /// The Cholesky's first pivot that was not positive (its value before the square
+    /// root), when that is what stopped it.
+    pub(crate) pivot: Option<f64>,
+}
+
+impl From<String> for FactorFailure {
+    fn from(message: String) -> Self {
+        FactorFailure {
+            message,
+            pivot: None,
+        }
+    }
+}
+
+impl From<&str> for FactorFailure {
+    fn from(message: &str) -> Self {
+        message.to_string().into()
+    }
 }
 
 /// Subtrees with fewer flops (`Σ c_j²` of their columns) are factorised by one task.
@@ -501,7 +532,7 @@ impl TreeCholesky {
         values: &[T],
         threads: usize,
         pool: &WorkspacePool<T>,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         self.run(l, values, threads, pool, None)
     }
 
@@ -525,7 +556,7 @@ impl TreeCholesky {
         values: &[T],
         threads: usize,
         pool: &WorkspacePool<T>,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         if subdiag.len() != self.n || forward.len() != self.n || inverse.len() != self.n {
             return Err("pivot storage of the wrong size".into());
         }
@@ -553,7 +584,7 @@ impl TreeCholesky {
         threads: usize,
         pool: &WorkspacePool<T>,
         pivots: Option<Pivots<T>>,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         if l.len() != self.val_ptr[self.val_ptr.len() - 1] {
             return Err("factor storage of the wrong size".into());
         }
@@ -586,7 +617,7 @@ impl TreeCholesky {
         roots: &[usize],
         cx: &Context<'_, T>,
         ws: &mut Workspace<T>,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         let flops: f64 = roots.iter().map(|&r| self.subtree_flops[r]).sum();
         if !cx.forking || flops < MIN_FORK_FLOPS {
             for &r in roots {
@@ -640,7 +671,7 @@ impl TreeCholesky {
         cx: &Context<'_, T>,
         ws: &mut Workspace<T>,
         par: Par,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         let values = cx.values;
         let (b, e) = (self.begin[s], self.end[s]);
         let w = e - b;
@@ -697,14 +728,20 @@ impl TreeCholesky {
             return Self::pivoted_block(b, e, mat, pivots, mem, par);
         }
         let (mut top, bottom) = mat.split_at_row_mut(w);
-        cholesky_in_place(
+        if let Err(err) = cholesky_in_place(
             top.as_mut(),
             Default::default(),
             par,
             MemStack::new(mem),
             Spec::default(),
-        )
-        .map_err(|err| format!("Cholesky: supernode {s}: {err:?}"))?;
+        ) {
+            // faer leaves the pivot that was not positive on the diagonal.
+            let faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } = err;
+            return Err(FactorFailure {
+                message: format!("Cholesky: supernode {s}: {err:?}"),
+                pivot: Some(top[(index, index)].to_f64()),
+            });
+        }
         faer::linalg::triangular_solve::solve_lower_triangular_in_place(
             top.as_ref(),
             bottom.transpose_mut(),
@@ -723,7 +760,7 @@ impl TreeCholesky {
         pivots: &Pivots<T>,
         mem: &mut MemBuffer,
         par: Par,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         let w = e - b;
         let (mut top, mut bottom) = mat.split_at_row_mut(w);
         // SAFETY: columns b..e are this task's supernode.
@@ -841,7 +878,7 @@ impl TreeCholesky {
         map: &[usize],
         scratch: &mut UpdateScratch<T>,
         cx: &Context<'_, T>,
-    ) -> Result<(), String> {
+    ) -> Result<(), FactorFailure> {
         let (b, e) = (self.begin[s], self.end[s]);
         let w = e - b;
         let m = w + self.pat_ptr[s + 1] - self.pat_ptr[s];
