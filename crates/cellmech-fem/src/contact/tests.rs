@@ -213,6 +213,63 @@ fn bonded_plate_transmits_tension_after_touching() {
 }
 
 #[test]
+fn a_node_bonded_at_the_commit_keeps_the_force_it_had_pull_included() {
+    // An active node inside the status band that pulls a little on the plate (the active
+    // law is bilateral until the status check) is bonded at the commit. The bond must start
+    // with that force, or the converged equilibrium changes under the reported forces (the
+    // compression's plates were up to 5 nN out of balance when the pull was dropped).
+    let (penalty, tolerance) = (50.0, 1e-3);
+    let node = [0.0, 0.0, 1.0];
+    let plate = ToolShape::Plate {
+        point: [0.0, 0.0, 1.0],
+        normal: [0.0, 0.0, 1.0],
+    };
+    let mut c = RigidContact::new(
+        "plate",
+        plate,
+        ContactKind::Bonded,
+        vec![0],
+        vec![node],
+        penalty,
+        tolerance,
+        vec![[0.0; 3]],
+    )
+    .unwrap();
+    let dof_map = DofMap::translational(1);
+    for (gap, pull) in [
+        (0.3 * tolerance, true),
+        (-0.2 * tolerance, false),
+        (0.5 * tolerance, false),
+    ] {
+        let u = [0.0, 0.0, gap];
+        let x = [node[0], node[1], node[2] + gap];
+        let g = c.shape.gap(&x, &c.trial.offset).unwrap();
+        let eps = penalty * c.scale[0];
+        c.trial.anchors[0] = None;
+        c.trial.active[0] = true;
+        // p = λ − ε g: a pull of 0.4 ε·tol, or a push of 0.4 ε·tol.
+        let p = if pull { -0.4 } else { 0.4 } * eps * tolerance;
+        c.trial.lambda[0] = p + eps * g.value;
+        let mut before = [0.0; 3];
+        c.element_evaluate(0, &u, &mut before, None).unwrap();
+        assert!(
+            (before[2] + p * g.gradient[2]).abs() < 1e-12 * eps,
+            "{before:?}"
+        );
+        c.on_commit(&u, &dof_map);
+        assert!(c.trial.anchors[0].is_some(), "bonded at gap {gap}");
+        let mut after = [0.0; 3];
+        c.element_evaluate(0, &u, &mut after, None).unwrap();
+        for i in 0..3 {
+            assert!(
+                (after[i] - before[i]).abs() <= 1e-12 * eps * tolerance,
+                "gap {gap}: force {before:?} before the commit, {after:?} after"
+            );
+        }
+    }
+}
+
+#[test]
 fn contact_adds_no_entries_to_the_sparsity_pattern() {
     let with_contact = spring_and_tool(ContactKind::Frictionless, vec![[0.0; 3]]);
     let nodes = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.0]];
