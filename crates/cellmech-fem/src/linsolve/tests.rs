@@ -121,14 +121,21 @@ fn indefinite_matrix_falls_back_to_ldlt_and_reports_the_inertia() {
     assert!(res < 1e-10, "residual {res:e}");
 }
 
-/// The methods a sequence of definite (`true`) and indefinite matrices is factorised with.
-fn methods_of(solver: &mut FaerSparseSolver, definite: &[bool]) -> Vec<FactorMethod> {
+/// A small hex-elasticity matrix and the same shifted by 0.37 of its mean diagonal
+/// (indefinite, well conditioned).
+fn definite_and_indefinite() -> (TestMatrix, TestMatrix) {
     let spd = hex_elasticity(4, 3, 3, 1.0, 0.3);
     let diag_mean = (0..spd.pattern.n)
         .map(|c| spd.values[spd.pattern.col_ptr[c]])
         .sum::<f64>()
         / spd.pattern.n as f64;
     let indefinite = shift_diagonal(&spd, 0.37 * diag_mean);
+    (spd, indefinite)
+}
+
+/// The methods a sequence of definite (`true`) and indefinite matrices is factorised with.
+fn methods_of(solver: &mut FaerSparseSolver, definite: &[bool]) -> Vec<FactorMethod> {
+    let (spd, indefinite) = definite_and_indefinite();
     solver.analyze(&spd.pattern).expect("analyze");
     definite
         .iter()
@@ -221,12 +228,7 @@ fn a_pivot_below_the_tolerance_keeps_the_pivoted_factor_when_it_solves_accuratel
     // A well-conditioned indefinite matrix with a tolerance so strict that some pivots of
     // the intranode LDLᵀ fall below it: the probe solve shows the factor resolves the
     // matrix, so it is kept (before: LU, about 15 times slower on the cell models).
-    let spd = hex_elasticity(4, 3, 3, 1.0, 0.3);
-    let diag_mean = (0..spd.pattern.n)
-        .map(|c| spd.values[spd.pattern.col_ptr[c]])
-        .sum::<f64>()
-        / spd.pattern.n as f64;
-    let m = shift_diagonal(&spd, 0.37 * diag_mean);
+    let (spd, m) = definite_and_indefinite();
     let mut strict = FaerSparseSolver::new(2).with_pivot_tolerance(0.5);
     strict.analyze(&m.pattern).expect("analyze");
     let (info, res, x) = solve(&mut strict, &m);

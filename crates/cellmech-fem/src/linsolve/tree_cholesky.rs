@@ -21,6 +21,10 @@
 //! groups of about equal flops (`rayon::join`), smaller subtrees are done in order. Each
 //! supernode's arithmetic is the same whatever the schedule, so the factor is bitwise the
 //! same on any number of threads.
+//!
+//! The same schedule runs faer's intranode Bunch–Kaufman LBLᵀ for indefinite matrices
+//! ([`TreeCholesky::factorize_pivoted`]): step 2 subtracts `L_d[rows] (L_d[columns] B_d)ᵀ`
+//! and step 3 factorises the diagonal block with pivoting inside it, into faer's layout.
 
 use std::sync::Mutex;
 
@@ -1236,6 +1240,20 @@ mod tests {
         (m, sym, tree)
     }
 
+    /// The grid's values with `fraction` of the mean diagonal taken off the diagonal
+    /// (indefinite for the fractions used here).
+    fn shifted(m: &crate::linsolve::test_matrices::TestMatrix, fraction: f64) -> Vec<f64> {
+        let mut values = m.values.clone();
+        let mean = (0..m.pattern.n)
+            .map(|c| values[m.pattern.col_ptr[c]])
+            .sum::<f64>()
+            / m.pattern.n as f64;
+        for c in 0..m.pattern.n {
+            values[m.pattern.col_ptr[c]] -= fraction * mean;
+        }
+        values
+    }
+
     /// `f` run inside a fresh pool of `threads` threads.
     fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
         rayon::ThreadPoolBuilder::new()
@@ -1538,14 +1556,7 @@ mod tests {
     #[test]
     fn the_pivoted_tree_factor_is_faers_and_the_same_bits_on_one_and_two_threads() {
         let (m, sym, tree) = grid(11, 10, 9);
-        let mut values = m.values.clone();
-        let mean = (0..m.pattern.n)
-            .map(|c| values[m.pattern.col_ptr[c]])
-            .sum::<f64>()
-            / m.pattern.n as f64;
-        for c in 0..m.pattern.n {
-            values[m.pattern.col_ptr[c]] -= 0.3 * mean;
-        }
+        let values = shifted(&m, 0.3);
         let reference = faer_pivoted(&sym, &m.pattern, &values);
         let pool = WorkspacePool::default();
         let run = |threads: usize| {
@@ -1615,14 +1626,7 @@ mod tests {
     #[test]
     fn an_indefinite_matrix_fails() {
         let (m, sym, tree) = grid(9, 8, 8);
-        let mut values = m.values.clone();
-        let mean = (0..m.pattern.n)
-            .map(|c| values[m.pattern.col_ptr[c]])
-            .sum::<f64>()
-            / m.pattern.n as f64;
-        for c in 0..m.pattern.n {
-            values[m.pattern.col_ptr[c]] -= 0.3 * mean;
-        }
+        let values = shifted(&m, 0.3);
         let mut l = vec![0.0; sym.len_val()];
         assert!(tree
             .factorize(&mut l, &values, 2, &WorkspacePool::default())
@@ -1636,11 +1640,7 @@ mod tests {
         for k in [14, 18, 22] {
             let (m, sym, tree) = grid(k, k, k);
             let n = m.pattern.n;
-            let mut values = m.values.clone();
-            let mean = (0..n).map(|c| values[m.pattern.col_ptr[c]]).sum::<f64>() / n as f64;
-            for c in 0..n {
-                values[m.pattern.col_ptr[c]] -= 0.05 * mean;
-            }
+            let values = shifted(&m, 0.05);
             let pool = WorkspacePool::default();
             let (mut l, mut sub, mut fwd, mut inv) = (
                 vec![0.0; sym.len_val()],
