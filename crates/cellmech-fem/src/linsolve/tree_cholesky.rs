@@ -1331,16 +1331,8 @@ mod tests {
             })
         };
         let (one, two) = (solve(1), solve(2));
-        let mut ax = vec![0.0; m.pattern.n];
-        m.pattern.sym_mul(&m.values, &two, &mut ax);
-        let r: f64 = ax
-            .iter()
-            .zip(&b)
-            .map(|(a, b)| (a - b).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let nb: f64 = b.iter().map(|v| v * v).sum::<f64>().sqrt();
-        assert!(r < 1e-10 * nb, "relative residual {:e}", r / nb);
+        let residual = relative_residual(&m.pattern, &m.values, &two, &b);
+        assert!(residual < 1e-10, "relative residual {residual:e}");
         assert!(bitwise_equal(&one, &two));
     }
 
@@ -1508,11 +1500,39 @@ mod tests {
             Par::Seq,
             &mut MemStack::new(&mut mem),
         );
-        let mut ax = vec![0.0; n];
-        pattern.sym_mul(values, &x, &mut ax);
+        relative_residual(pattern, values, &x, &b)
+    }
+
+    /// The tree's pivoted factor of `values` on `threads` threads: (L, sub-diagonal,
+    /// forward and inverse permutation).
+    fn tree_pivoted(
+        tree: &TreeCholesky,
+        sym: &SymbolicCholesky<usize>,
+        values: &[f64],
+        threads: usize,
+        pool: &WorkspacePool<f64>,
+    ) -> (Vec<f64>, Vec<f64>, Vec<usize>, Vec<usize>) {
+        let n = tree.n;
+        let (mut l, mut sub, mut fwd, mut inv) = (
+            vec![0.0; sym.len_val()],
+            vec![0.0; n],
+            vec![0; n],
+            vec![0; n],
+        );
+        in_pool(threads, || {
+            tree.factorize_pivoted(&mut l, &mut sub, &mut fwd, &mut inv, values, threads, pool)
+        })
+        .unwrap();
+        (l, sub, fwd, inv)
+    }
+
+    /// ‖A x − b‖ / ‖b‖ for the symmetric A of `pattern` and `values`.
+    fn relative_residual(pattern: &SparsityPattern, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
+        let mut ax = vec![0.0; pattern.n];
+        pattern.sym_mul(values, x, &mut ax);
         let r: f64 = ax
             .iter()
-            .zip(&b)
+            .zip(b)
             .map(|(p, q)| (p - q).powi(2))
             .sum::<f64>()
             .sqrt();
@@ -1559,24 +1579,8 @@ mod tests {
         let values = shifted(&m, 0.3);
         let reference = faer_pivoted(&sym, &m.pattern, &values);
         let pool = WorkspacePool::default();
-        let run = |threads: usize| {
-            in_pool(threads, || {
-                let n = m.pattern.n;
-                let (mut l, mut sub, mut fwd, mut inv) = (
-                    vec![0.0; sym.len_val()],
-                    vec![0.0; n],
-                    vec![0; n],
-                    vec![0; n],
-                );
-                tree.factorize_pivoted(
-                    &mut l, &mut sub, &mut fwd, &mut inv, &values, threads, &pool,
-                )
-                .unwrap();
-                (l, sub, fwd, inv)
-            })
-        };
-        let one = run(1);
-        let two = run(2);
+        let one = tree_pivoted(&tree, &sym, &values, 1, &pool);
+        let two = tree_pivoted(&tree, &sym, &values, 2, &pool);
         assert!(bitwise_equal(&one.0, &two.0) && bitwise_equal(&one.1, &two.1));
         assert_eq!((&one.2, &one.3), (&two.2, &two.3));
         // The same pivots as faer's (the same algorithm), the same values to round-off.
@@ -1599,27 +1603,9 @@ mod tests {
     #[test]
     fn the_pivoted_tree_factor_of_a_definite_matrix_has_no_negative_pivot() {
         let (m, sym, tree) = grid(9, 8, 8);
-        let n = m.pattern.n;
-        let (mut l, mut sub, mut fwd, mut inv) = (
-            vec![0.0; sym.len_val()],
-            vec![0.0; n],
-            vec![0; n],
-            vec![0; n],
-        );
-        in_pool(2, || {
-            tree.factorize_pivoted(
-                &mut l,
-                &mut sub,
-                &mut fwd,
-                &mut inv,
-                &m.values,
-                2,
-                &WorkspacePool::default(),
-            )
-        })
-        .unwrap();
-        assert_eq!(inertia(&sym, &l, &sub).0, 0);
-        let residual = pivoted_residual(&sym, &m.pattern, &m.values, &(l, sub, fwd, inv));
+        let factor = tree_pivoted(&tree, &sym, &m.values, 2, &WorkspacePool::default());
+        assert_eq!(inertia(&sym, &factor.0, &factor.1).0, 0);
+        let residual = pivoted_residual(&sym, &m.pattern, &m.values, &factor);
         assert!(residual < 1e-10, "{residual:e}");
     }
 
