@@ -196,9 +196,6 @@ pub struct FaerSparseSolver {
     indefinite_streak: usize,
     /// Factorise positive definite matrices in single precision first.
     mixed: bool,
-    /// Pivoted factorisations by faer's sequential numeric step instead of the tree's
-    /// ([`FaerSparseSolver::with_faer_pivoted`]).
-    faer_pivoted: bool,
     /// Single precision failed once on a positive definite matrix (pivot or conjugate
     /// gradients): double precision from then on.
     mixed_off: bool,
@@ -253,7 +250,6 @@ impl FaerSparseSolver {
             numeric: None,
             indefinite_streak: 0,
             mixed: false,
-            faer_pivoted: false,
             mixed_off: false,
             mixed_max_iterations: MIXED_MAX_ITERATIONS,
             stats: MixedPrecisionStats::default(),
@@ -272,14 +268,6 @@ impl FaerSparseSolver {
     /// the solver stays in double precision from then on. See `docs/linear-solver.md`, "Mixed precision".
     pub fn with_mixed_precision(mut self, on: bool) -> Self {
         self.mixed = on;
-        self
-    }
-
-    /// Pivoted (indefinite) factorisations by faer's sequential supernodal Bunch–Kaufman
-    /// instead of the same algorithm on the elimination tree (the default; both write the
-    /// same layout, which faer's solve uses). For comparisons and benchmarks.
-    pub fn with_faer_pivoted(mut self, on: bool) -> Self {
-        self.faer_pivoted = on;
         self
     }
 
@@ -417,7 +405,7 @@ impl FaerSparseSolver {
         let threads = self.tree_threads(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         match a.tree.as_ref() {
-            Some(tree) if !self.faer_pivoted => tree
+            Some(tree) => tree
                 .factorize_pivoted(
                     &mut a.l_values,
                     &mut a.subdiag,

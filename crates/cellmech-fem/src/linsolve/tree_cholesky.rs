@@ -707,29 +707,8 @@ impl TreeCholesky {
         }
         let mat = MatMut::from_column_major_slice_mut(block, m, w);
         if let Some(pivots) = &cx.pivots {
-            if pivot_mem.is_none() {
-                let req = StackReq::any_of(&[
-                    lblt::cholesky_in_place_scratch::<usize, T>(
-                        self.max_width,
-                        Par::Seq,
-                        Spec::default(),
-                    ),
-                    lblt::cholesky_in_place_scratch::<usize, T>(
-                        self.max_width,
-                        Par::rayon(0),
-                        Spec::default(),
-                    ),
-                ])
-                .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
-                    self.max_pattern,
-                    self.max_width,
-                ));
-                *pivot_mem = Some(
-                    MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?,
-                );
-            }
-            let mem = pivot_mem.as_mut().ok_or("no pivot workspace")?;
-            return Self::pivoted_block(b, e, mat, pivots, mem, par);
+            Self::pivoted_block(b, e, mat, pivots, self.pivot_stack::<T>(pivot_mem)?, par);
+            return Ok(());
         }
         let (mut top, bottom) = mat.split_at_row_mut(w);
         if let Err(err) = cholesky_in_place(
@@ -754,6 +733,34 @@ impl TreeCholesky {
         Ok(())
     }
 
+    /// The pivoted factorisation's dense stack in `slot`, made at its first use.
+    fn pivot_stack<'m, T: TreeScalar>(
+        &self,
+        slot: &'m mut Option<MemBuffer>,
+    ) -> Result<&'m mut MemBuffer, FactorFailure> {
+        if slot.is_none() {
+            let req = StackReq::any_of(&[
+                lblt::cholesky_in_place_scratch::<usize, T>(
+                    self.max_width,
+                    Par::Seq,
+                    Spec::default(),
+                ),
+                lblt::cholesky_in_place_scratch::<usize, T>(
+                    self.max_width,
+                    Par::rayon(0),
+                    Spec::default(),
+                ),
+            ])
+            .and(faer::perm::permute_cols_in_place_scratch::<usize, T>(
+                self.max_pattern,
+                self.max_width,
+            ));
+            *slot =
+                Some(MemBuffer::try_new(req).map_err(|_| "out of memory for the factorisation")?);
+        }
+        slot.as_mut().ok_or_else(|| "no pivot workspace".into())
+    }
+
     /// The pivoted supernode `b..e` whose block `mat` holds A's entries minus every
     /// descendant's update: Bunch–Kaufman on the diagonal block, the rows below permuted
     /// the same way and solved against `L` and then `B` (faer's intranode step).
@@ -764,7 +771,7 @@ impl TreeCholesky {
         pivots: &Pivots<T>,
         mem: &mut MemBuffer,
         par: Par,
-    ) -> Result<(), FactorFailure> {
+    ) {
         let w = e - b;
         let (mut top, mut bottom) = mat.split_at_row_mut(w);
         // SAFETY: columns b..e are this task's supernode.
@@ -826,7 +833,6 @@ impl TreeCholesky {
                 j += 2;
             }
         }
-        Ok(())
     }
 
     /// `out` (`nc × w_d`, column-major) = the rows `w_d + j0..` of descendant `d`'s finished
