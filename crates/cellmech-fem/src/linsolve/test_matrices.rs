@@ -13,6 +13,19 @@ pub struct TestMatrix {
     pub values: Vec<f64>,
 }
 
+/// ‖A x − b‖ / ‖b‖ for the symmetric A of lower-triangle `pattern` and `values`.
+pub fn relative_residual(pattern: &SparsityPattern, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
+    let mut ax = vec![0.0; pattern.n];
+    pattern.sym_mul(values, x, &mut ax);
+    let r: f64 = ax
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (p - q).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    r / b.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
 /// Stiffness matrix of a unit-spaced `nx x ny x nz` grid of trilinear hexahedra (hex8, 2x2x2
 /// Gauss points) of an isotropic linear-elastic material (Young's modulus `young`, Poisson
 /// ratio `poisson`), with the nodes of the `z = 0` face clamped (removed), so the matrix is

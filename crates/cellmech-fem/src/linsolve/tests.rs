@@ -1,25 +1,13 @@
 //! Tests of [`FaerSparseSolver`] against the [`LinearSolver`] contract.
 
 use super::ordering::is_permutation;
-use super::test_matrices::{hex_elasticity, TestMatrix};
+use super::test_matrices::{hex_elasticity, relative_residual, TestMatrix};
 use super::*;
 
 fn rhs(n: usize) -> Vec<f64> {
     (0..n)
         .map(|i| ((i * 37 + 11) % 101) as f64 / 101.0 - 0.4)
         .collect()
-}
-
-fn relative_residual(p: &SparsityPattern, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
-    let mut ax = vec![0.0; p.n];
-    p.sym_mul(values, x, &mut ax);
-    let r: f64 = ax
-        .iter()
-        .zip(b)
-        .map(|(a, b)| (a - b).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    r / b.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 fn solve(solver: &mut FaerSparseSolver, m: &TestMatrix) -> (FactorInfo, f64, Vec<f64>) {

@@ -1156,7 +1156,7 @@ impl TreeCholesky {
 mod tests {
     use super::*;
     use crate::linsolve::ordering::{inverse_permutation, nested_dissection};
-    use crate::linsolve::test_matrices::hex_elasticity;
+    use crate::linsolve::test_matrices::{hex_elasticity, relative_residual};
     use faer::sparse::linalg::cholesky::{
         factorize_symbolic_cholesky, supernodal::SupernodalLltRef, CholeskySymbolicParams,
         IntranodeLbltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
@@ -1530,19 +1530,6 @@ mod tests {
         })
         .unwrap();
         (l, sub, fwd, inv)
-    }
-
-    /// ‖A x − b‖ / ‖b‖ for the symmetric A of `pattern` and `values`.
-    fn relative_residual(pattern: &SparsityPattern, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
-        let mut ax = vec![0.0; pattern.n];
-        pattern.sym_mul(values, x, &mut ax);
-        let r: f64 = ax
-            .iter()
-            .zip(b)
-            .map(|(p, q)| (p - q).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        r / b.iter().map(|v| v * v).sum::<f64>().sqrt()
     }
 
     /// The inertia of B: (negative eigenvalues, 2x2 blocks).
