@@ -782,7 +782,7 @@ impl TreeCholesky {
                 pivots.inverse.block_mut(b..e),
             )
         };
-        let mut stack = MemStack::new(mem);
+        let stack = MemStack::new(mem);
         {
             let (_, perm) = lblt::cholesky_in_place(
                 top.rb_mut(),
@@ -790,10 +790,10 @@ impl TreeCholesky {
                 forward,
                 inverse,
                 par,
-                &mut stack,
+                stack,
                 Spec::default(),
             );
-            faer::perm::permute_cols_in_place(bottom.rb_mut(), perm, &mut stack);
+            faer::perm::permute_cols_in_place(bottom.rb_mut(), perm, stack);
         }
         for j in 0..w {
             for i in 0..j {
@@ -815,7 +815,7 @@ impl TreeCholesky {
             if subdiag[j] == T::ZERO {
                 let d = T::ONE / top[(j, j)];
                 for i in 0..rows {
-                    bottom[(i, j)] = bottom[(i, j)] * d;
+                    bottom[(i, j)] *= d;
                 }
                 j += 1;
             } else {
