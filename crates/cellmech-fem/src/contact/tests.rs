@@ -150,6 +150,68 @@ impl crate::solve::Observer for IterationCounter {
     }
 }
 
+/// Node 2 between two inclined springs (k = 2 nN/um, unstressed, rest length sqrt 2 um)
+/// from the held nodes 0 at (-1, 0, 1) and 1 at (1, 0, 1), pushed 0.3 um up by a
+/// frictionless plate with a penalty of 50 and a tolerance of 1e-9 um: a geometrically
+/// nonlinear contact problem, so Newton takes several iterations per round and the
+/// multipliers several Uzawa rounds. Returns the node's rise, the plate's force and the
+/// Newton iterations.
+fn inclined_springs_pushed(early_augmentation: f64) -> (f64, f64, usize) {
+    let nodes = [[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 0.0, 0.0]];
+    let springs = SpringSet {
+        name: "springs".into(),
+        nodes: vec![[0, 2], [1, 2]],
+        reference: vec![[nodes[0], nodes[2]], [nodes[1], nodes[2]]],
+        stiffness: vec![2.0; 2],
+        rest_length: vec![2f64.sqrt(); 2],
+    };
+    let plate = ToolShape::Plate {
+        point: [0.0; 3],
+        normal: [0.0, 0.0, 1.0],
+    };
+    let contact = RigidContact::new(
+        "plate",
+        plate,
+        ContactKind::Frictionless,
+        vec![2],
+        vec![nodes[2]],
+        50.0,
+        1e-9,
+        vec![[0.0, 0.0, 0.3]],
+    )
+    .unwrap();
+    let mut p = springs_and_tool(3, springs, contact, Box::new(DenseSolver::default()));
+    let mut step = Step::new("push");
+    step.prescribed = (0..6).chain([7]).map(|d| (d, Motion::Hold)).collect();
+    step.control.convergence.early_augmentation = early_augmentation;
+    let mut counter = IterationCounter(0);
+    p.run_step(&step, &mut counter).unwrap();
+    let force = value(&contact_term(&p), "plate_force_z_nN");
+    (p.u()[8], force, counter.0)
+}
+
+#[test]
+fn augmenting_near_equilibrium_reaches_the_same_state_in_fewer_iterations() {
+    // At a rise of 0.3 um each spring is sqrt(1 + 0.7^2) long, compressed by
+    // sqrt 2 - that; the plate carries both springs' vertical components.
+    let length = (1.0f64 + 0.7 * 0.7).sqrt();
+    let exact = 2.0 * 2.0 * (2f64.sqrt() - length) * 0.7 / length;
+    let (rise_late, force_late, late) = inclined_springs_pushed(0.0);
+    let (rise, force, early) =
+        inclined_springs_pushed(crate::solve::Convergence::default().early_augmentation);
+    for (x, f) in [(rise_late, force_late), (rise, force)] {
+        assert!((x - 0.3).abs() < 1e-8, "rise {x}");
+        assert!(
+            (f - exact).abs() < 1e-7 * exact,
+            "force {f} against {exact}"
+        );
+    }
+    assert!(
+        early < late,
+        "{early} Newton iterations augmenting near equilibrium, {late} only at convergence"
+    );
+}
+
 #[test]
 fn bfgs_keeps_its_factorisation_through_multiplier_updates() {
     // With penalty 50 against the spring's 2 the multiplier needs several Uzawa rounds to

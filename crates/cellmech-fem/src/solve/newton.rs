@@ -151,6 +151,9 @@ impl Problem {
         // Whether the last augmentation changed only multipliers (the tangent is the one
         // factorised near convergence: a chord step may follow it at once).
         let mut same_tangent = false;
+        // Whether this round has let the terms augment before converging
+        // ([`Convergence::early_augmentation`]).
+        let mut early_checked = false;
         for iteration in 0.. {
             // Update and evaluate at the new point (tangent included for the next solve).
             let tolerance = conv.residual_tolerance * scale_floor.max(self.work.scale);
@@ -213,30 +216,10 @@ impl Problem {
                 && residual_force > r0
                 && residual_force > conv.rebound_ratio * round_best;
             round_best = round_best.min(residual_force);
-            if converged {
+            let augmented = if converged {
                 match self.augment_terms() {
                     None => return Ok(iteration + 1),
-                    Some((message, multipliers_only)) => {
-                        same_tangent = multipliers_only;
-                        augmentations += 1;
-                        self.timings.augmentations += 1;
-                        if augmentations > conv.max_augmentations {
-                            return Err(FailureReason::Unsettled(format!(
-                                "{augmentations} augmentations without settling: {message}"
-                            )));
-                        }
-                        // The terms changed: re-evaluate here and continue Newton.
-                        self.set_near_equilibrium(false);
-                        if relaxing {
-                            self.relax_blocks(conv.residual_tolerance * scale);
-                        }
-                        self.evaluate(quasi_newton == 0)?;
-                        round_start = iteration;
-                        round_best = f64::INFINITY;
-                        // Quasi-Newton keeps its factorisation and updates when only
-                        // multipliers changed (the tangent did not).
-                        reform = reform || !multipliers_only;
-                    }
+                    some => some,
                 }
             } else if r0 > 0.0 && residual_ratio * scale > conv.divergence_ratio * r0 {
                 return Err(FailureReason::Diverged {
@@ -254,6 +237,36 @@ impl Problem {
                     residual: residual_ratio,
                     energy: energy_ratio,
                 });
+            } else if !early_checked && residual_ratio <= conv.early_augmentation {
+                // Near enough to equilibrium that the terms' status and multipliers are
+                // what they will be at it: update them now rather than after the round's
+                // last digits, which an update would throw away.
+                early_checked = true;
+                self.augment_terms()
+            } else {
+                None
+            };
+            if let Some((message, multipliers_only)) = augmented {
+                same_tangent = multipliers_only;
+                augmentations += 1;
+                self.timings.augmentations += 1;
+                if augmentations > conv.max_augmentations {
+                    return Err(FailureReason::Unsettled(format!(
+                        "{augmentations} augmentations without settling: {message}"
+                    )));
+                }
+                // The terms changed: re-evaluate here and continue Newton.
+                self.set_near_equilibrium(false);
+                if relaxing {
+                    self.relax_blocks(conv.residual_tolerance * scale);
+                }
+                self.evaluate(quasi_newton == 0)?;
+                round_start = iteration;
+                round_best = f64::INFINITY;
+                early_checked = false;
+                // Quasi-Newton keeps its factorisation and updates when only
+                // multipliers changed (the tangent did not).
+                reform = reform || !multipliers_only;
             }
             for d in 0..n {
                 self.work.rhs[d] = if self.prescribed[d] {
