@@ -560,18 +560,24 @@ impl Problem {
     /// its size ([`crate::linsolve::LinearSolver::solve_to_in_place`]; 0: in full).
     fn factorize_and_solve(&mut self, tolerance: f64) -> Result<(), FailureReason> {
         let (solver, work) = (&mut self.solver, &mut self.work);
-        let (factor, start, factored, solved) = self.pool.install(|| {
-            let start = Instant::now();
-            let factor = solver.factorize(&work.values)?;
-            let factored = Instant::now();
+        let start = Instant::now();
+        let mut factored = None;
+        // The times are booked whether or not the factorisation and solve succeed: a
+        // matrix that every method fails on (LLᵀ, LDLᵀ, LU) costs the most of all.
+        let result = self.pool.install(|| {
+            let factor = solver.factorize(&work.values);
+            factored = Some(Instant::now());
+            let factor = factor?;
             work.delta.copy_from_slice(&work.rhs);
             solver.solve_to_in_place(&mut work.delta, tolerance)?;
-            Ok::<_, FailureReason>((factor, start, factored, Instant::now()))
-        })?;
-        self.last_factor = Some(factor);
-        self.expand_correction();
+            Ok::<_, FailureReason>(factor)
+        });
+        let (factored, solved) = (factored.unwrap_or(start), Instant::now());
         self.timings.factorization_s += (factored - start).as_secs_f64();
         self.timings.solve_s += (solved - factored).as_secs_f64();
+        let factor = result?;
+        self.last_factor = Some(factor);
+        self.expand_correction();
         self.timings.factorizations += 1;
         if self.work.delta.iter().any(|x| !x.is_finite()) {
             return Err(FailureReason::NotFinite { iteration: 0 });
