@@ -252,11 +252,9 @@ fn contact_grip_still_gives_the_force_it_gave_before() {
     // 1e-5 of the force scale) instead of only at convergence (docs/performance.md, stop 54),
     // the rounds start from other states and the increments end at other states within the
     // tolerance: 41.753996960922734 nN (+3.1e-8; the force scale includes the prestressed
-    // filaments' internal forces and exceeds this force). Since indefinite tangents are
-    // factorised in single precision too, their solves refined by GMRES to 1e-6
-    // (docs/linear-solver.md, stop 54): 41.75399695495748 nN (-1.4e-10).
+    // filaments' internal forces and exceeds this force).
     assert!(
-        (last.force_nn / 41.75399695495748 - 1.0).abs() < 1e-12,
+        (last.force_nn / 41.753996960922734 - 1.0).abs() < 1e-12,
         "{}",
         last.force_nn
     );

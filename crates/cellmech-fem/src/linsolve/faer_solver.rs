@@ -161,8 +161,9 @@ struct Analysis {
     refine_r: Vec<f64>,
     cg_p: Vec<f64>,
     cg_ap: Vec<f64>,
-    /// GMRES of the single-precision LDLᵀ's solves: the Krylov basis, `(m + 1) n` values
-    /// (allocated at the first such solve).
+    /// The flexible GMRES of the single-precision LDLᵀ's solves: its basis and the
+    /// basis' preconditioned images, `(2m + 1) n` values for `m` =
+    /// [`MIXED_MAX_ITERATIONS`] (allocated at the first such solve).
     krylov: Vec<f64>,
 }
 
@@ -174,7 +175,7 @@ enum Numeric {
     Llt32,
     Lblt,
     /// Bunch–Kaufman LDLᵀ in single precision on the elimination tree, solves refined in
-    /// double by GMRES ([`FaerSparseSolver::try_lblt32`]).
+    /// double by flexible GMRES ([`FaerSparseSolver::try_lblt32`]).
     Lblt32,
     Lu(Box<Lu<usize, f64>>),
 }
@@ -211,6 +212,8 @@ pub struct FaerSparseSolver {
     /// A single-precision LDLᵀ did not resolve an indefinite matrix (a GMRES solve that
     /// ran out of iterations): indefinite matrices in double precision from then on.
     pivoted_single_off: bool,
+    /// Factorise indefinite matrices in single precision too (off by default).
+    pivoted_single: bool,
     /// Most conjugate-gradient iterations of a mixed-precision solve
     /// ([`MIXED_MAX_ITERATIONS`]; lowered by tests to reach the fallback in a solve).
     mixed_max_iterations: usize,
@@ -225,6 +228,9 @@ pub struct MixedPrecisionStats {
     /// Indefinite matrices factorised in single precision (Bunch–Kaufman LDLᵀ on the
     /// elimination tree; their solves refined by GMRES).
     pub single_pivoted_factorizations: usize,
+    /// Single-precision LDLᵀ factorisations that did not resolve their matrix (a pivot
+    /// below the floor): the double-precision one followed.
+    pub single_pivoted_refused: usize,
     /// Conjugate-gradient iterations of the refined solves (each one double-precision
     /// product with A and one single-precision solve; a solve also does one
     /// single-precision solve before its first iteration).
@@ -269,6 +275,7 @@ impl FaerSparseSolver {
             mixed: false,
             mixed_off: false,
             pivoted_single_off: false,
+            pivoted_single: false,
             mixed_max_iterations: MIXED_MAX_ITERATIONS,
             stats: MixedPrecisionStats::default(),
         }
@@ -283,10 +290,8 @@ impl FaerSparseSolver {
     /// refinement. When single precision does not resolve the matrix (a pivot `L_kk²` below
     /// 1e-7 of the unit diagonal, or conjugate gradients that break down or take more than
     /// [`MIXED_MAX_ITERATIONS`]), the matrix is factorised again in double precision, and
-    /// the solver stays in double precision from then on. An indefinite matrix is
-    /// factorised in single precision too, by the pivoted LDLᵀ on the elimination tree,
-    /// and its solves are refined by flexible GMRES (`try_lblt32`); where that does
-    /// not resolve it, indefinite matrices go to double precision from then on. See
+    /// the solver stays in double precision from then on. Indefinite matrices go to the
+    /// double-precision LDLᵀ unless [`Self::with_single_precision_pivoted`] is on. See
     /// `docs/linear-solver.md`, "Mixed precision" and "Indefinite matrices in single
     /// precision".
     pub fn with_mixed_precision(mut self, on: bool) -> Self {
@@ -299,6 +304,16 @@ impl FaerSparseSolver {
     #[cfg(test)]
     pub(crate) fn with_mixed_max_iterations(mut self, iterations: usize) -> Self {
         self.mixed_max_iterations = iterations;
+        self
+    }
+
+    /// With mixed precision, factorise indefinite matrices in single precision too (off by
+    /// default): the pivoted LDLᵀ on the elimination tree in `f32`, its solves refined by
+    /// flexible GMRES (`try_lblt32`). Measured on the compression cell it is not yet a
+    /// gain on every case (`docs/linear-solver.md`, "Indefinite matrices in single
+    /// precision"), so the cell analyses do not use it.
+    pub fn with_single_precision_pivoted(mut self, on: bool) -> Self {
+        self.pivoted_single = on;
         self
     }
 
@@ -866,15 +881,7 @@ impl LinearSolver for FaerSparseSolver {
                 // The conjugate gradients did not get there: double precision from the saved
                 // right-hand side.
                 self.fall_back_to_double();
-                let a = self
-                    .analysis
-                    .as_mut()
-                    .ok_or_else(|| usage("not analysed"))?;
-                rhs.copy_from_slice(&a.refine_b);
-                // Once per solver: a copy of the values keeps the borrows simple.
-                let values = a.values.clone();
-                self.factorize_double(&values, true)?;
-                return self.solve_in_place(rhs);
+                return self.solve_again_in_double(rhs, true);
             }
             Some(Numeric::Lblt32) => {
                 let max_iterations = self.mixed_max_iterations;
@@ -891,14 +898,7 @@ impl LinearSolver for FaerSparseSolver {
                 // double precision (the positive definite ones stay in single precision).
                 self.pivoted_single_off = true;
                 self.stats.fallbacks += 1;
-                let a = self
-                    .analysis
-                    .as_mut()
-                    .ok_or_else(|| usage("not analysed"))?;
-                rhs.copy_from_slice(&a.refine_b);
-                let values = a.values.clone();
-                self.factorize_double(&values, false)?;
-                return self.solve_in_place(rhs);
+                return self.solve_again_in_double(rhs, false);
             }
             _ => {}
         }
@@ -944,6 +944,25 @@ impl FaerSparseSolver {
             .as_ref()
             .ok_or_else(|| usage("solve before analyze"))?;
         Ok(Par::Seq)
+    }
+
+    /// A single-precision solve that did not get there: the kept matrix factorised in
+    /// double precision (LLᵀ first when `cholesky`) and solved from the right-hand side
+    /// saved in `refine_b` (once per solver: a copy of the values keeps the borrows
+    /// simple).
+    fn solve_again_in_double(
+        &mut self,
+        rhs: &mut [f64],
+        cholesky: bool,
+    ) -> Result<(), LinSolveError> {
+        let a = self
+            .analysis
+            .as_mut()
+            .ok_or_else(|| usage("not analysed"))?;
+        rhs.copy_from_slice(&a.refine_b);
+        let values = a.values.clone();
+        self.factorize_double(&values, cholesky)?;
+        self.solve_in_place(rhs)
     }
 
     /// Single precision did not resolve the matrix: double precision from now on.
@@ -1025,10 +1044,13 @@ impl FaerSparseSolver {
     /// An indefinite matrix in single precision ([`Self::try_lblt32`]); `None` (nothing
     /// changed but scratch) when that does not resolve it, for the double-precision path.
     fn try_pivoted_single(&mut self, values: &[f64]) -> Option<FactorInfo> {
-        if self.pivoted_single_off {
+        if !self.pivoted_single || self.pivoted_single_off {
             return None;
         }
-        let (info, definite) = self.try_lblt32(values).ok()?;
+        let Ok((info, definite)) = self.try_lblt32(values) else {
+            self.stats.single_pivoted_refused += 1;
+            return None;
+        };
         self.numeric = Some(Numeric::Lblt32);
         self.stats.single_pivoted_factorizations += 1;
         self.indefinite_streak = if definite {
@@ -1281,9 +1303,7 @@ fn single_precision_solve(a: &mut Analysis, v: &[f64], par: Par) {
         }
         return;
     }
-    for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
-        *x = (b * d) as f32;
-    }
+    scaled_into_x32(a, v);
     let mut stack = MemStack::new(&mut a.mem);
     LltRef::new(&a.symbolic, &a.l_values32).solve_in_place_with_conj(
         Conj::No,
@@ -1291,6 +1311,18 @@ fn single_precision_solve(a: &mut Analysis, v: &[f64], par: Par) {
         par,
         &mut stack,
     );
+    unscale_x32(a);
+}
+
+/// `a.x32` ← `v` scaled to the unit diagonal the single-precision factor was computed for.
+fn scaled_into_x32(a: &mut Analysis, v: &[f64]) {
+    for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
+        *x = (b * d) as f32;
+    }
+}
+
+/// `a.x32` scaled back from the unit diagonal.
+fn unscale_x32(a: &mut Analysis) {
     for (x, &d) in a.x32.iter_mut().zip(&a.scale) {
         *x = (f64::from(*x) * d) as f32;
     }
@@ -1354,9 +1386,7 @@ fn lblt_inertia<T: TreeScalar>(
 /// |diagonal| the factor was computed for); faer's sequential supernodal solve.
 fn pivoted_single_solve(a: &mut Analysis, v: &[f64]) {
     let n = a.n;
-    for ((x, &b), &d) in a.x32.iter_mut().zip(v).zip(&a.scale) {
-        *x = (b * d) as f32;
-    }
+    scaled_into_x32(a, v);
     let mut stack = MemStack::new(&mut a.mem);
     let perm = faer::perm::PermRef::new_checked(&a.bk_fwd, &a.bk_inv, n);
     IntranodeLbltRef::new(&a.symbolic, &a.l_values32, &a.subdiag32, perm).solve_in_place_with_conj(
@@ -1365,9 +1395,7 @@ fn pivoted_single_solve(a: &mut Analysis, v: &[f64]) {
         Par::Seq,
         &mut stack,
     );
-    for (x, &d) in a.x32.iter_mut().zip(&a.scale) {
-        *x = (f64::from(*x) * d) as f32;
-    }
+    unscale_x32(a);
 }
 
 /// `A x = rhs` in double precision with the single-precision LDLᵀ `M`

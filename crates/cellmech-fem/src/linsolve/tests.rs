@@ -732,7 +732,9 @@ fn an_indefinite_matrix_in_single_precision_has_the_double_inertia_and_solves_by
     double.analyze(&m.pattern).expect("analyze");
     let (info64, _, x64) = solve(&mut double, &m);
     assert_eq!(info64.method, FactorMethod::Ldlt);
-    let mut mixed = FaerSparseSolver::new(1).with_mixed_precision(true);
+    let mut mixed = FaerSparseSolver::new(1)
+        .with_mixed_precision(true)
+        .with_single_precision_pivoted(true);
     mixed.analyze(&m.pattern).expect("analyze");
     let (info, residual, x) = solve(&mut mixed, &m);
     let stats = mixed.mixed_precision_stats();
@@ -774,6 +776,7 @@ fn gmres_that_runs_out_of_iterations_falls_back_to_the_double_precision_ldlt() {
     // are the indefinite matrices after it.
     let mut short = FaerSparseSolver::new(1)
         .with_mixed_precision(true)
+        .with_single_precision_pivoted(true)
         .with_mixed_max_iterations(1);
     short.analyze(&m.pattern).expect("analyze");
     let (info, _, x) = solve(&mut short, &m);
