@@ -317,11 +317,6 @@ impl FaerSparseSolver {
         self
     }
 
-    /// Whether mixed precision was asked for ([`Self::with_mixed_precision`]).
-    pub fn is_mixed(&self) -> bool {
-        self.mixed
-    }
-
     /// What mixed precision did so far.
     pub fn mixed_precision_stats(&self) -> MixedPrecisionStats {
         self.stats
@@ -813,28 +808,11 @@ impl LinearSolver for FaerSparseSolver {
     }
 
     fn solve_approximately_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinSolveError> {
-        if matches!(self.numeric, Some(Numeric::Lblt32)) {
-            let a = self
-                .analysis
-                .as_mut()
-                .ok_or_else(|| usage("solve before analyze"))?;
-            if rhs.len() != a.n {
-                return Err(usage(&format!(
-                    "solve: expected rhs of length {}, found {}",
-                    a.n,
-                    rhs.len()
-                )));
-            }
-            pivoted_single_solve(a, rhs);
-            for (x, &y) in rhs.iter_mut().zip(&a.x32) {
-                *x = f64::from(y);
-            }
-            self.stats.unrefined_solves += 1;
-            return Ok(());
-        }
-        if !matches!(self.numeric, Some(Numeric::Llt32)) {
-            return self.solve_in_place(rhs);
-        }
+        let pivoted = match self.numeric {
+            Some(Numeric::Llt32) => false,
+            Some(Numeric::Lblt32) => true,
+            _ => return self.solve_in_place(rhs),
+        };
         let (par, a) = self.solve_setup()?;
         if rhs.len() != a.n {
             return Err(usage(&format!(
@@ -843,7 +821,11 @@ impl LinearSolver for FaerSparseSolver {
                 rhs.len()
             )));
         }
-        single_precision_solve(a, rhs, par);
+        if pivoted {
+            pivoted_single_solve(a, rhs);
+        } else {
+            single_precision_solve(a, rhs, par);
+        }
         for (x, &y) in rhs.iter_mut().zip(&a.x32) {
             *x = f64::from(y);
         }
@@ -995,12 +977,7 @@ impl FaerSparseSolver {
             }
             a.scale[c] = 1.0 / d.sqrt();
         }
-        for c in 0..a.n {
-            for k in a.pattern.col_ptr[c]..a.pattern.col_ptr[c + 1] {
-                let scaled = values[k] * a.scale[c] * a.scale[a.pattern.row_idx[k]];
-                a.values32[k] = scaled as f32;
-            }
-        }
+        scale_into_values32(a, values);
         let factor = LltFactor {
             symbolic: &a.symbolic,
             tree: a.tree.as_ref(),
@@ -1072,7 +1049,9 @@ impl FaerSparseSolver {
         let threads = self.tree_threads(self.analysis.as_ref().ok_or("not analysed")?);
         let floor = self.pivot_tolerance.max(MIXED_PIVOT_FLOOR);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
-        let tree = a.tree.as_ref().ok_or("no elimination tree")?;
+        if a.tree.is_none() {
+            return Err("no elimination tree".into());
+        }
         for c in 0..a.n {
             let d = values[a.diag_pos[c]].abs();
             if !(d > 0.0 && d.is_finite()) {
@@ -1080,12 +1059,8 @@ impl FaerSparseSolver {
             }
             a.scale[c] = 1.0 / d.sqrt();
         }
-        for c in 0..a.n {
-            for k in a.pattern.col_ptr[c]..a.pattern.col_ptr[c + 1] {
-                let scaled = values[k] * a.scale[c] * a.scale[a.pattern.row_idx[k]];
-                a.values32[k] = scaled as f32;
-            }
-        }
+        scale_into_values32(a, values);
+        let tree = a.tree.as_ref().ok_or("no elimination tree")?;
         tree.factorize_pivoted(
             &mut a.l_values32,
             &mut a.subdiag32,
@@ -1312,6 +1287,17 @@ fn single_precision_solve(a: &mut Analysis, v: &[f64], par: Par) {
         &mut stack,
     );
     unscale_x32(a);
+}
+
+/// `a.values32` ← `values` scaled symmetrically by `a.scale` (`D^{-1/2} A D^{-1/2}`), in
+/// single precision: the matrix the single-precision factorisations take.
+fn scale_into_values32(a: &mut Analysis, values: &[f64]) {
+    for c in 0..a.n {
+        for k in a.pattern.col_ptr[c]..a.pattern.col_ptr[c + 1] {
+            let scaled = values[k] * a.scale[c] * a.scale[a.pattern.row_idx[k]];
+            a.values32[k] = scaled as f32;
+        }
+    }
 }
 
 /// `a.x32` ← `v` scaled to the unit diagonal the single-precision factor was computed for.
