@@ -162,7 +162,9 @@ pub struct StepControl {
     /// BFGS step that converged every increment in 6-10 iterations never let them grow
     /// (docs/performance.md, "The first correction too").
     pub easy_quasi_newton_iterations: usize,
-    /// Growth factor after an easy increment.
+    /// Growth factor after an easy increment. An increment within this factor of the
+    /// step's end (and within `max_increment`) takes the whole rest instead of leaving a
+    /// sliver, except the retry after a cut-back and an aim at a stop monitor's crossing.
     pub growth: f64,
     /// Cut factor after a failed increment.
     pub cutback: f64,

@@ -949,3 +949,102 @@ fn an_increment_whose_residual_rebounds_near_equilibrium_is_cut_at_once() {
         "without the criterion: {failed_off} iterations, with it {failed}"
     );
 }
+
+/// Refuses (as an inverted element would) any state whose DOF `dof` moved more than
+/// `max_jump` from its last committed value: an increment longer than that fails.
+struct LongStepRefuser {
+    dof: usize,
+    max_jump: f64,
+    committed: f64,
+}
+
+impl Term for LongStepRefuser {
+    fn name(&self) -> &str {
+        "long-step-refuser"
+    }
+    fn num_elements(&self) -> usize {
+        1
+    }
+    fn element_dofs(&self, _e: usize, _dof_map: &DofMap, dofs: &mut [usize]) -> usize {
+        dofs[0] = self.dof;
+        1
+    }
+    fn evaluate(
+        &self,
+        _e: usize,
+        u_e: &[f64],
+        _residual: &mut [f64],
+        _tangent: Option<&mut [f64]>,
+    ) -> Result<f64, crate::element::KernelError> {
+        if (u_e[0] - self.committed).abs() > self.max_jump {
+            return Err(crate::element::KernelError::InvertedElement { qp: 0, det_f: -1.0 });
+        }
+        Ok(0.0)
+    }
+    fn commit(&mut self, u: &[f64], _dof_map: &DofMap) {
+        self.committed = u[self.dof];
+    }
+}
+
+/// The chain's end pulled by 1 µm in increments starting at `initial` (growth 1.5,
+/// cut-back `cutback`), increments moving the end by more than `max_jump` refused.
+fn pull_chain_in_increments(initial: f64, cutback: f64, max_jump: f64) -> Recorder {
+    let terms: Vec<Box<dyn Term>> = vec![
+        Box::new(springs(&CHAIN, &[[0, 1], [1, 2], [2, 3]], 2.0)),
+        Box::new(LongStepRefuser {
+            dof: 9,
+            max_jump,
+            committed: 0.0,
+        }),
+    ];
+    let mut p = Problem::new(
+        DofMap::translational(4),
+        terms,
+        Box::new(DenseSolver::default()),
+    )
+    .unwrap();
+    let mut step = pull_end_step("pull");
+    step.control.initial_increment = initial;
+    step.control.max_increment = 1.0;
+    step.control.cutback = cutback;
+    let mut rec = Recorder::default();
+    p.run_step(&step, &mut rec).unwrap();
+    assert!(
+        (p.reaction(9) - 2.0 / 3.0).abs() < 1e-10,
+        "{}",
+        p.reaction(9)
+    );
+    rec
+}
+
+fn increment_ends(rec: &Recorder) -> Vec<f64> {
+    rec.increments.iter().map(|i| i.0).collect()
+}
+
+#[test]
+fn an_increment_within_one_growth_of_the_step_end_goes_to_the_end() {
+    // 0.35, then 0.525 would leave 0.125: the second increment takes the rest (0.65 ≤
+    // 1.5 × 0.525) instead of leaving a sliver for a third.
+    let rec = pull_chain_in_increments(0.35, 0.5, f64::INFINITY);
+    let ends = increment_ends(&rec);
+    assert_eq!(rec.cutbacks, 0);
+    assert_eq!(ends.len(), 2, "{ends:?}");
+    assert!((ends[0] - 0.35).abs() < 1e-12 && (ends[1] - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn a_cut_back_increment_is_not_stretched_back_to_the_size_that_failed() {
+    // Increments moving the end by more than 0.35 µm are refused; cut-back 0.8. 0.3
+    // passes, 0.45 and 0.36 are refused, 0.288 passes (t = 0.588). The next, grown to
+    // 0.432, is stretched to the rest (0.412) and refused; its retry, 0.3296, lies within
+    // one growth of the end too, but stretched it would be the refused 0.412 again, and
+    // again after every cut: it stays 0.3296, and the last 0.0824 follows.
+    let rec = pull_chain_in_increments(0.3, 0.8, 0.35);
+    let ends = increment_ends(&rec);
+    assert_eq!(rec.cutbacks, 3, "{ends:?}");
+    let expected = [0.3, 0.588, 0.9176, 1.0];
+    assert_eq!(ends.len(), expected.len(), "{ends:?}");
+    for (end, want) in ends.iter().zip(expected) {
+        assert!((end - want).abs() < 1e-12, "{ends:?}");
+    }
+}
