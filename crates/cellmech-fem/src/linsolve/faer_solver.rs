@@ -180,6 +180,31 @@ enum Numeric {
     Lu(Box<Lu<usize, f64>>),
 }
 
+/// Why a double-precision LDLᵀ was not kept.
+#[derive(Debug)]
+struct LbltFailure {
+    message: String,
+    /// It completed with a pivot below the tolerance, and its refined probe solve had a
+    /// forward error above [`LU_PROBE_TOLERANCE`] but below 1: the matrix is singular to
+    /// working accuracy (LU is not tried).
+    near_null_space_only: bool,
+}
+
+impl From<String> for LbltFailure {
+    fn from(message: String) -> Self {
+        LbltFailure {
+            message,
+            near_null_space_only: false,
+        }
+    }
+}
+
+impl From<&str> for LbltFailure {
+    fn from(message: &str) -> Self {
+        message.to_string().into()
+    }
+}
+
 /// Sparse direct solver (faer supernodal Cholesky) for the symmetric tangent matrices of the
 /// engine. See the module docs of [`super`] for the contract and `docs/linear-solver.md` for
 /// the design.
@@ -439,7 +464,7 @@ impl FaerSparseSolver {
     /// dense kernels cost more than they gained on 2 threads (the adherent apex: 122.2 s
     /// wall and 14 s of system time threaded, 105.4 s sequential; docs/performance.md,
     /// "Bunch–Kaufman on one thread"), so without a tree it runs sequentially.
-    fn try_lblt(&mut self, values: &[f64]) -> Result<(FactorInfo, bool), String> {
+    fn try_lblt(&mut self, values: &[f64]) -> Result<(FactorInfo, bool), LbltFailure> {
         let threads = self.tree_threads(self.analysis.as_ref().ok_or("not analysed")?);
         let a = self.analysis.as_mut().ok_or("not analysed")?;
         match a.tree.as_ref() {
@@ -492,7 +517,10 @@ impl FaerSparseSolver {
             let error = self.probe_forward_error(values);
             self.numeric = None;
             if !(error <= LU_PROBE_TOLERANCE) {
-                return Err(format!("{message}; probe forward error {error:e}"));
+                return Err(LbltFailure {
+                    message: format!("{message}; probe forward error {error:e}"),
+                    near_null_space_only: error < 1.0,
+                });
             }
             return Ok((info, false));
         }
@@ -1128,7 +1156,20 @@ impl FaerSparseSolver {
                 };
                 return Ok(info);
             }
-            Err(e) => failures.push(e),
+            Err(e) if e.near_null_space_only => {
+                // The pivoted factor, refined, solved the probe to a forward error below 1:
+                // it resolves the matrix except along a near-null space, so the matrix is
+                // singular to working accuracy, and an LU (no refinement, no better pivots
+                // for a symmetric matrix) cannot do better. On the suspended battery's 9
+                // such tangents LU's error was 1.2e-3 to 1.5 against LDLᵀ's 6e-6 to 2.2e-3,
+                // never accepted, at 12 s or more each (docs/linear-solver.md, "LU only
+                // where it can help").
+                failures.push(e.message);
+                failures
+                    .push("LU not tried: the refined LDLᵀ leaves only a near-null space".into());
+                return Err(LinSolveError::Singular(failures.join("; ")));
+            }
+            Err(e) => failures.push(e.message),
         }
         match self.try_lu(values) {
             Ok(info) => {

@@ -298,7 +298,11 @@ fn singular_matrices_return_singular_not_panic() {
     solver.analyze(&m.pattern).expect("analyze");
     match solver.factorize(&values) {
         Err(LinSolveError::Singular(msg)) => {
-            assert!(msg.contains("Cholesky") && msg.contains("LU"))
+            // A zero pivot leaves the pivoted factor no finite solve: LU is tried.
+            assert!(
+                msg.contains("Cholesky") && msg.contains("LU: ") && !msg.contains("LU not tried"),
+                "{msg}"
+            )
         }
         other => panic!("expected Singular, got {other:?}"),
     }
@@ -308,6 +312,55 @@ fn singular_matrices_return_singular_not_panic() {
         res < 1e-10 && info.method != FactorMethod::Lu,
         "{info:?} {res:e}"
     );
+}
+
+/// A 60-equation chain (tridiagonal 2, −1, held at both ends: positive definite) beside a
+/// separate 2x2 block `[[1, 1], [1, 1 + δ]]`: one eigenvalue about δ/2, the rest O(1).
+fn chain_beside_near_singular_block(delta: f64) -> (SparsityPattern, Vec<f64>) {
+    let chain = 60;
+    let mut cliques: Vec<Vec<usize>> = (0..chain - 1).map(|i| vec![i, i + 1]).collect();
+    cliques.push(vec![chain, chain + 1]);
+    let pattern = SparsityPattern::from_cliques(chain + 2, cliques.iter().map(|c| &c[..]));
+    let mut values = vec![0.0; pattern.nnz()];
+    let mut add = |r: usize, c: usize, v: f64| {
+        values[pattern.position(r.max(c), r.min(c)).expect("in pattern")] += v;
+    };
+    for i in 0..chain {
+        add(i, i, 2.0);
+        if i + 1 < chain {
+            add(i + 1, i, -1.0);
+        }
+    }
+    add(chain, chain, 1.0);
+    add(chain + 1, chain, 1.0);
+    add(chain + 1, chain + 1, 1.0 + delta);
+    (pattern, values)
+}
+
+#[test]
+fn a_matrix_singular_to_working_accuracy_is_reported_without_trying_lu() {
+    // δ = 1e-13: the pivoted factor completes with a pivot of about 1e-13 (below the
+    // 1e-12 tolerance) and its refined probe solve is off by about 1e-16/1e-13 along the
+    // near-null vector: above the 1e-6 acceptance, far below 1. The matrix is singular
+    // to working accuracy; LU could not do better and is not tried.
+    let (pattern, values) = chain_beside_near_singular_block(1e-13);
+    let mut solver = FaerSparseSolver::new(1);
+    solver.analyze(&pattern).expect("analyze");
+    match solver.factorize(&values) {
+        Err(LinSolveError::Singular(msg)) => {
+            assert!(msg.contains("probe forward error"), "{msg}");
+            assert!(
+                msg.contains("LU not tried") && !msg.contains("LU: "),
+                "{msg}"
+            );
+        }
+        other => panic!("expected Singular, got {other:?}"),
+    }
+    // With δ = 1e-6 the same structure is merely ill-conditioned (4e6): factorised.
+    let (pattern, values) = chain_beside_near_singular_block(1e-6);
+    solver.analyze(&pattern).expect("analyze");
+    let info = solver.factorize(&values).expect("factorize");
+    assert_ne!(info.method, FactorMethod::Lu, "{info:?}");
 }
 
 #[test]
