@@ -1162,8 +1162,8 @@ impl FaerSparseSolver {
                 // singular to working accuracy, and an LU (no refinement, no better pivots
                 // for a symmetric matrix) cannot do better. On the suspended battery's 9
                 // such tangents LU's error was 1.2e-3 to 1.5 against LDLᵀ's 6e-6 to 2.2e-3,
-                // never accepted, at about 25 s each on one thread (docs/linear-solver.md, "LU only
-                // where it can help").
+                // never accepted, at about 25 s each on one thread (docs/linear-solver.md,
+                // "LU only where it can help").
                 failures.push(e.message);
                 failures
                     .push("LU not tried: the refined LDLᵀ leaves only a near-null space".into());
