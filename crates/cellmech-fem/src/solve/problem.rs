@@ -443,8 +443,6 @@ impl Problem {
             ..*control
         };
         let mut full_newton = false;
-        // The last attempt failed and this one is its shorter retry.
-        let mut cut_back = false;
         // Stop condition: g = monitor - target at the last committed state, and a trial time
         // known to lie beyond the crossing.
         let gap = |p: &Problem| {
@@ -485,7 +483,9 @@ impl Problem {
         };
         while time < 1.0 && !reached(g_prev) && !ended_in_jump {
             let rest = 1.0 - time;
-            let stretch = !cut_back
+            // (`extrapolate` is false exactly while the last attempt failed: this one is
+            // its shorter retry.)
+            let stretch = extrapolate
                 && beyond.is_none()
                 && rest <= control.growth * dt
                 && rest <= control.max_increment;
@@ -601,7 +601,6 @@ impl Problem {
                         &mut iterations,
                     );
                     full_newton = false;
-                    cut_back = false;
                     if let (true, Some(st), Some(settings)) =
                         (final_increment, stabilization, control.stabilization)
                     {
@@ -679,7 +678,6 @@ impl Problem {
                     self.f_ext = saved_f;
                     observer.on_cutback(time, dt, &reason);
                     extrapolate = false;
-                    cut_back = true;
                     full_newton = control.convergence.method != IterationMethod::Newton;
                     dt *= control.cutback;
                     if let Some(st) = &mut self.stabilizer {
