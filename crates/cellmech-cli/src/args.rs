@@ -86,9 +86,15 @@ pub enum Command {
     /// tornado.svg for modulus axes, curves.svg, report.md, report.html) covers every
     /// case recorded in OUT.
     ///
+    /// Several studies share one pool of --jobs workers: each writes OUT/STUDY/ (STUDY:
+    /// the built-in name or the file's stem), the workers stay busy until the last case of
+    /// all of them, and a case that two studies share (their controls) runs once and is
+    /// copied to the other (its record says `shared_from`). Give the slowest study first.
+    ///
     /// Examples:
     ///   cellmech study --list
     ///   cellmech study suspended-tension-disruption --out out/disruption --jobs 2
+    ///   cellmech study suspended-compression-modulus suspended-tension-modulus --out out/battery --jobs 2
     ///   cellmech study my-study.toml --shard 3/8 --out shared/study   # one array task
     ///   cellmech study my-study.toml --collect --out shared/study     # report only
     ///   cellmech study my-study.toml --collect --from a/ --from b/ --out merged/
@@ -171,9 +177,9 @@ pub struct FitArgs {
 
 #[derive(Debug, Args)]
 pub struct StudyArgs {
-    /// Built-in study name or study file.
+    /// Built-in study names or study files (several: one pool, OUT/STUDY/ each).
     #[arg(required_unless_present = "list")]
-    pub study: Option<String>,
+    pub study: Vec<String>,
     /// List the built-in studies.
     #[arg(long)]
     pub list: bool,

@@ -180,6 +180,96 @@ fn a_study_killed_mid_case_resumes_and_matches_an_uninterrupted_run() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The coarse study's modulus twin: control and the MTs at half their modulus.
+fn modulus_study() -> String {
+    STUDY.replace("coarse disruption", "coarse moduli").replace(
+        "kind = \"disruption\"\nfamilies = [\"microtubule\"]",
+        "kind = \"modulus\"\ncomponents = [\"microtubule\"]\nfactors = [0.5]",
+    )
+}
+
+#[test]
+fn several_studies_share_one_pool_and_their_common_control_runs_once() {
+    let dir = scratch("pool");
+    let (dis, modulus) = (dir.join("dis.toml"), dir.join("mod.toml"));
+    std::fs::write(&dis, STUDY).unwrap();
+    std::fs::write(&modulus, modulus_study()).unwrap();
+    let (dis, modulus) = (dis.to_str().unwrap(), modulus.to_str().unwrap());
+    let pooled = dir.join("pooled");
+    let run = || {
+        let o = cellmech(&[
+            "study",
+            modulus,
+            dis,
+            "--json",
+            "--jobs",
+            "2",
+            "--out",
+            pooled.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        json["studies"].as_array().unwrap().clone()
+    };
+    let studies = run();
+    assert_eq!(studies.len(), 2);
+    assert_eq!(studies[0]["shared"], 0, "{studies:?}");
+    assert_eq!(studies[1]["shared"], 1, "{studies:?}");
+    // The disruption study's control is a copy of the modulus study's (listed first), with
+    // its own name, scenario file and provenance; the other cases ran in their folders.
+    let record = |study: &str, case: &str| -> serde_json::Value {
+        let path = pooled
+            .join(study)
+            .join("cases")
+            .join(case)
+            .join("record.json");
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let (source, copy) = (record("mod", "control"), record("dis", "control"));
+    assert!(source["shared_from"].is_null());
+    assert!(copy["shared_from"]
+        .as_str()
+        .unwrap()
+        .ends_with("mod/cases/control"));
+    for key in ["force_nn", "curve", "iterations", "factorizations", "seed"] {
+        assert_eq!(source[key], copy[key], "{key}");
+    }
+    assert!(record("dis", "no-microtubule")["shared_from"].is_null());
+    assert!(pooled.join("dis/cases/control/curve.csv").exists());
+    let case_file = std::fs::read_to_string(pooled.join("dis/cases/control/case.toml")).unwrap();
+    assert!(case_file.contains("coarse disruption"), "{case_file}");
+    // The same results as the disruption study run on its own.
+    let alone = dir.join("alone");
+    let o = cellmech(&["study", dis, "--quiet", "--out", alone.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(results(&pooled.join("dis")), results(&alone));
+    // A rerun skips every case.
+    let again = run();
+    for s in &again {
+        assert_eq!(s["ran"], 0, "{again:?}");
+    }
+    // A case identical to a recorded one is copied, not run, even in a later invocation.
+    std::fs::remove_dir_all(pooled.join("mod/cases/control")).unwrap();
+    let again = run();
+    assert_eq!(again[0]["ran"], 1, "{again:?}");
+    let restored = record("mod", "control");
+    assert!(restored["shared_from"]
+        .as_str()
+        .unwrap()
+        .ends_with("dis/cases/control"));
+    assert_eq!(restored["force_nn"], source["force_nn"]);
+    // Two studies of the same name would write one folder.
+    let o = cellmech(&["study", dis, dis, "--out", pooled.to_str().unwrap()]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("distinct names"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_misspelt_parameter_is_rejected_before_any_case_runs() {
     let dir = scratch("bad");

@@ -18,7 +18,7 @@ pub mod report;
 pub mod run;
 pub mod spec;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub use run::{CaseEvent, CaseRecord, StudyOptions};
 pub use spec::{Case, StudyError, StudySpec};
@@ -84,33 +84,105 @@ pub fn run_study(
     options: &StudyOptions,
     on_case: &(dyn Fn(&CaseRecord, CaseEvent) + Sync),
 ) -> Result<StudyOutcome, StudyError> {
-    let io = |e: std::io::Error| StudyError::Output(format!("{}: {e}", options.out.display()));
-    std::fs::create_dir_all(options.out.join("cases")).map_err(io)?;
-    let cases = spec.cases();
-    // The study as run, next to its results (the first writer wins: a shard does not
-    // overwrite another's copy with a different study silently).
-    let copy = options.out.join("study.toml");
-    match std::fs::read_to_string(&copy) {
-        Ok(existing) if existing != study_text => {
+    let run = StudyRun {
+        spec,
+        text: study_text,
+        out: options.out.clone(),
+    };
+    let mut outcomes = run_studies(&[run], options, on_case)?;
+    Ok(outcomes.remove(0))
+}
+
+/// One study of a [`run_studies`] call, with its own output directory.
+#[derive(Debug, Clone)]
+pub struct StudyRun<'a> {
+    /// The study.
+    pub spec: &'a StudySpec,
+    /// Its text as given (written to `OUT/study.toml`).
+    pub text: &'a str,
+    /// Its output directory.
+    pub out: PathBuf,
+}
+
+/// Runs several studies in one pool of `options.jobs` workers (their shard when
+/// `options.shard` is set; `options.out` is not used: each study has its own), then writes
+/// each study's report. One pool keeps every worker busy until the last case of all the
+/// studies, where studies run one after another each leave cores idle at their end; and a
+/// case that two studies share (their controls) is computed once
+/// ([`run::run_jobs`]). Cases are taken in the order of the studies and of their cases.
+pub fn run_studies(
+    runs: &[StudyRun<'_>],
+    options: &StudyOptions,
+    on_case: &(dyn Fn(&CaseRecord, CaseEvent) + Sync),
+) -> Result<Vec<StudyOutcome>, StudyError> {
+    let mut cases = Vec::with_capacity(runs.len());
+    for (i, run) in runs.iter().enumerate() {
+        if runs[..i].iter().any(|r| r.out == run.out) {
             return Err(StudyError::Invalid {
-                path: copy.display().to_string(),
-                message: "expected the same study as the one already in this output directory; found a different one (use another --out)".into(),
-            })
+                path: run.out.display().to_string(),
+                message: "expected a separate output directory for each study; found two studies writing here".into(),
+            });
         }
-        Ok(_) => {}
-        Err(_) => cellmech_io::write_atomic(&copy, study_text.as_bytes())
-            .map_err(|e| StudyError::Output(e.to_string()))?,
+        prepare_output(run)?;
+        let study_cases = run.spec.cases();
+        run::check_cases(run.spec, &study_cases)?;
+        cases.push(study_cases);
     }
-    let before: usize = cases
-        .iter()
-        .filter(|c| run::read_record(&run::case_dir(&options.out, &c.name)).is_some())
-        .count();
-    run::run_cases(spec, &cases, options, on_case)?;
-    let mut outcome = collect(spec, &options.out)?;
-    let recorded = outcome.records.iter().flatten().count();
-    outcome.ran = recorded.saturating_sub(before);
-    outcome.skipped = before;
-    Ok(outcome)
+    let mut before = Vec::with_capacity(runs.len());
+    let mut jobs = Vec::new();
+    for (run, study_cases) in runs.iter().zip(&cases) {
+        before.push(
+            study_cases
+                .iter()
+                .filter(|c| run::read_record(&run::case_dir(&run.out, &c.name)).is_some())
+                .count(),
+        );
+        jobs.extend(
+            study_cases
+                .iter()
+                .filter(|c| {
+                    options
+                        .shard
+                        .is_none_or(|(k, n)| run::shard_of(&c.name, n) == k)
+                })
+                .map(|case| run::CaseJob {
+                    spec: run.spec,
+                    case,
+                    dir: run::case_dir(&run.out, &case.name),
+                }),
+        );
+    }
+    for result in run::run_jobs(&jobs, options.jobs, options.threads_per_case, on_case) {
+        result?;
+    }
+    runs.iter()
+        .zip(before)
+        .map(|(run, before)| {
+            let mut outcome = collect(run.spec, &run.out)?;
+            let recorded = outcome.records.iter().flatten().count();
+            outcome.ran = recorded.saturating_sub(before);
+            outcome.skipped = before;
+            Ok(outcome)
+        })
+        .collect()
+}
+
+/// Creates a study's output directory and writes the study as run next to its results
+/// (the first writer wins: a shard does not overwrite another's copy with a different
+/// study silently).
+fn prepare_output(run: &StudyRun<'_>) -> Result<(), StudyError> {
+    let io = |e: std::io::Error| StudyError::Output(format!("{}: {e}", run.out.display()));
+    std::fs::create_dir_all(run.out.join("cases")).map_err(io)?;
+    let copy = run.out.join("study.toml");
+    match std::fs::read_to_string(&copy) {
+        Ok(existing) if existing != run.text => Err(StudyError::Invalid {
+            path: copy.display().to_string(),
+            message: "expected the same study as the one already in this output directory; found a different one (use another --out)".into(),
+        }),
+        Ok(_) => Ok(()),
+        Err(_) => cellmech_io::write_atomic(&copy, run.text.as_bytes())
+            .map_err(|e| StudyError::Output(e.to_string())),
+    }
 }
 
 /// Gathers every case recorded in `out` (from any shard) and writes the study's report.
@@ -159,7 +231,7 @@ pub fn merge_shards(
     collect(spec, out)
 }
 
-fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
+pub(crate) fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(to)?;
     let mut record = None;
     for entry in std::fs::read_dir(from)? {

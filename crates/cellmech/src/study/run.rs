@@ -99,6 +99,11 @@ pub struct CaseRecord {
     pub wall_time_s: f64,
     /// The test curve.
     pub curve: Vec<CurvePoint>,
+    /// The case folder this record and its outputs were copied from, when an identical
+    /// case of another study was run in the same pool (the outputs name that case in
+    /// their titles); `None` when the case was computed in its own folder.
+    #[serde(default)]
+    pub shared_from: Option<String>,
 }
 
 /// What happened to one case in this invocation.
@@ -108,6 +113,9 @@ pub enum CaseEvent {
     Skipped,
     /// Run now and recorded.
     Ran,
+    /// Recorded now from an identical case of another study run in the same pool
+    /// ([`run_jobs`]): its folder copied, not computed again.
+    Shared,
 }
 
 /// Stable 64-bit hash of `bytes` (FNV-1a): the same on every machine, build and run.
@@ -151,42 +159,70 @@ pub fn check_cases(spec: &StudySpec, cases: &[Case]) -> Result<(), StudyError> {
     Ok(())
 }
 
-/// Runs the selected cases (skipping recorded ones); `on_case` is told about each finished
-/// case (from any worker thread). Returns the records of the selected cases in case order.
-pub fn run_cases(
-    spec: &StudySpec,
-    cases: &[Case],
-    options: &StudyOptions,
+/// One case to run into its folder (of any study).
+#[derive(Debug, Clone)]
+pub struct CaseJob<'a> {
+    /// The case's study.
+    pub spec: &'a StudySpec,
+    /// The case.
+    pub case: &'a Case,
+    /// Its folder.
+    pub dir: PathBuf,
+}
+
+/// Runs cases of one or several studies in one pool of `jobs` workers, each case with
+/// `threads_per_case` solver threads (0: the cores divided by the workers). Cases whose
+/// scenarios are the same ([`StudySpec::scenario_key`]: the controls of a disruption and a
+/// modulus study, for example) are computed once: the first unrecorded one runs, and the
+/// others get a copy of its folder with their own `case.toml` and a record naming the
+/// source (`shared_from`); an identical case recorded earlier is copied instead of run.
+/// Work is taken in the order of the jobs, so the pool's tail is the last jobs'.
+/// Returns each job's record (or error), in job order.
+pub fn run_jobs(
+    jobs: &[CaseJob<'_>],
+    workers: usize,
+    threads_per_case: usize,
     on_case: &(dyn Fn(&CaseRecord, CaseEvent) + Sync),
-) -> Result<Vec<CaseRecord>, StudyError> {
-    check_cases(spec, cases)?;
-    let selected: Vec<&Case> = cases
-        .iter()
-        .filter(|c| options.shard.is_none_or(|(k, n)| shard_of(&c.name, n) == k))
-        .collect();
-    let jobs = options.jobs.max(1).min(selected.len().max(1));
-    let threads = if options.threads_per_case > 0 {
-        options.threads_per_case
+) -> Vec<Result<CaseRecord, StudyError>> {
+    // Groups of identical cases, in the order of their first job.
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut keys: Vec<Option<u64>> = Vec::new();
+    for (i, job) in jobs.iter().enumerate() {
+        // A case whose scenario does not resolve runs alone (and reports why it fails).
+        let key = job.spec.scenario_key(job.case).ok();
+        match keys.iter().position(|k| key.is_some() && *k == key) {
+            Some(g) => groups[g].push(i),
+            None => {
+                keys.push(key);
+                groups.push(vec![i]);
+            }
+        }
+    }
+    let workers = workers.max(1).min(groups.len().max(1));
+    let threads = if threads_per_case > 0 {
+        threads_per_case
     } else {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        (cores / jobs).max(1)
+        (cores / workers).max(1)
     };
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<Result<CaseRecord, StudyError>>>> =
-        Mutex::new((0..selected.len()).map(|_| None).collect());
+        Mutex::new((0..jobs.len()).map(|_| None).collect());
+    let finish = |i: usize, result: Result<(CaseRecord, CaseEvent), StudyError>| {
+        if let Ok((record, event)) = &result {
+            on_case(record, *event);
+        }
+        results.lock().expect("no worker panics holding the lock")[i] =
+            Some(result.map(|(r, _)| r));
+    };
     std::thread::scope(|scope| {
-        for _ in 0..jobs {
+        for _ in 0..workers {
             scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::SeqCst);
-                let Some(case) = selected.get(i) else {
+                let g = next.fetch_add(1, Ordering::SeqCst);
+                let Some(group) = groups.get(g) else {
                     break;
                 };
-                let result = run_case(spec, case, &options.out, threads);
-                if let Ok((record, event)) = &result {
-                    on_case(record, *event);
-                }
-                results.lock().expect("no worker panics holding the lock")[i] =
-                    Some(result.map(|(r, _)| r));
+                run_group(jobs, group, threads, &finish);
             });
         }
     });
@@ -194,18 +230,111 @@ pub fn run_cases(
         .into_inner()
         .expect("no worker panicked")
         .into_iter()
-        .map(|r| r.expect("every selected case ran"))
+        .map(|r| r.expect("every job ran"))
         .collect()
 }
 
-/// Runs one case into its study folder `OUT/cases/NAME` unless it is recorded.
-fn run_case(
-    spec: &StudySpec,
-    case: &Case,
-    out: &Path,
+/// Runs a group of identical cases: copies an existing record, or runs the first case
+/// that has none, then copies it to the others that have none.
+fn run_group(
+    jobs: &[CaseJob<'_>],
+    group: &[usize],
     threads: usize,
+    finish: &(dyn Fn(usize, Result<(CaseRecord, CaseEvent), StudyError>) + Sync),
+) {
+    let mut source: Option<(PathBuf, CaseRecord)> = None;
+    let mut pending = Vec::new();
+    for &i in group {
+        match read_record(&jobs[i].dir) {
+            Some(record) => {
+                if source.is_none() {
+                    source = Some((jobs[i].dir.clone(), record.clone()));
+                }
+                finish(i, Ok((record, CaseEvent::Skipped)));
+            }
+            None => pending.push(i),
+        }
+    }
+    let mut pending = pending.into_iter();
+    if source.is_none() {
+        let Some(first) = pending.next() else {
+            return;
+        };
+        let job = &jobs[first];
+        let result = run_case_in(job.spec, job.case, &job.dir, threads);
+        if let Ok((record, _)) = &result {
+            source = Some((job.dir.clone(), record.clone()));
+        }
+        finish(first, result);
+    }
+    for i in pending {
+        let job = &jobs[i];
+        let result = match &source {
+            Some((dir, record)) => share_case(dir, record, job),
+            // The first case could not even be set up: the others say why on their own.
+            None => run_case_in(job.spec, job.case, &job.dir, threads),
+        };
+        finish(i, result);
+    }
+}
+
+/// Records `job` from the identical case computed in `from`: its outputs copied, its own
+/// `case.toml`, and its record (its name, labels and keys; the numbers of the source),
+/// written last.
+fn share_case(
+    from: &Path,
+    source: &CaseRecord,
+    job: &CaseJob<'_>,
 ) -> Result<(CaseRecord, CaseEvent), StudyError> {
-    run_case_in(spec, case, &case_dir(out, &case.name), threads)
+    let dir = &job.dir;
+    let io = |e: std::io::Error| StudyError::Output(format!("{}: {e}", dir.display()));
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).map_err(io)?;
+    }
+    copy_outputs(from, dir).map_err(io)?;
+    let text = job.spec.case_document(job.case)?;
+    cellmech_io::write_atomic(&dir.join(CASE_FILE), text.as_bytes())
+        .map_err(|e| StudyError::Output(e.to_string()))?;
+    let record = CaseRecord {
+        name: job.case.name.clone(),
+        labels: job.case.labels.clone(),
+        set: job
+            .case
+            .set
+            .iter()
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect(),
+        shared_from: Some(from.display().to_string()),
+        ..source.clone()
+    };
+    write_record(dir, &record)?;
+    Ok((record, CaseEvent::Shared))
+}
+
+/// Copies a case folder's outputs (everything but its record and its `case.toml`).
+fn copy_outputs(from: &Path, to: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(to)?;
+    for entry in std::fs::read_dir(from)? {
+        let entry = entry?;
+        let name = entry.file_name();
+        if name == RECORD || name == CASE_FILE {
+            continue;
+        }
+        if entry.file_type()?.is_dir() {
+            super::copy_dir(&entry.path(), &to.join(&name))?;
+        } else {
+            std::fs::copy(entry.path(), to.join(&name))?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes a case's record, atomically: from now on the case is done.
+fn write_record(dir: &Path, record: &CaseRecord) -> Result<(), StudyError> {
+    let json =
+        serde_json::to_string_pretty(record).map_err(|e| StudyError::Output(e.to_string()))?;
+    cellmech_io::write_atomic(&dir.join(RECORD), json.as_bytes())
+        .map_err(|e| StudyError::Output(e.to_string()))
 }
 
 /// Runs one case in `dir` unless `dir` holds its record: writes `case.toml`, runs it with
@@ -315,10 +444,8 @@ pub fn run_case_in(
                     .collect()
             })
             .unwrap_or_default(),
+        shared_from: None,
     };
-    let json =
-        serde_json::to_string_pretty(&record).map_err(|e| StudyError::Output(e.to_string()))?;
-    cellmech_io::write_atomic(&dir.join(RECORD), json.as_bytes())
-        .map_err(|e| StudyError::Output(e.to_string()))?;
+    write_record(&dir, &record)?;
     Ok((record, CaseEvent::Ran))
 }

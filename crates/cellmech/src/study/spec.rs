@@ -764,8 +764,8 @@ impl StudySpec {
         cases
     }
 
-    /// The scenario document of a case.
-    pub fn case_document(&self, case: &Case) -> Result<String, StudyError> {
+    /// The case's scenario: the base with the case's keys set (the title as the base's).
+    pub fn case_scenario(&self, case: &Case) -> Result<toml::Table, StudyError> {
         let mut doc = self.base.clone();
         for (key, value) in &case.set {
             set_dotted(&mut doc, key, value.clone()).map_err(|message| StudyError::Case {
@@ -773,6 +773,27 @@ impl StudySpec {
                 message,
             })?;
         }
+        Ok(doc)
+    }
+
+    /// What a case computes, as a stable hash: its scenario without the title (a label
+    /// that changes no number) and the directory its relative paths resolve against. Two
+    /// cases with the same key give the same results, so a run of several studies runs
+    /// them once ([`super::run::run_jobs`]).
+    pub fn scenario_key(&self, case: &Case) -> Result<u64, StudyError> {
+        let mut doc = self.case_scenario(case)?;
+        doc.remove("title");
+        let text = toml::to_string(&doc).map_err(|e| StudyError::Case {
+            case: case.name.clone(),
+            message: e.to_string(),
+        })?;
+        let resolved = format!("{text}\n# resolved against {}", self.base_dir.display());
+        Ok(super::run::stable_hash(resolved.as_bytes()))
+    }
+
+    /// The scenario document of a case.
+    pub fn case_document(&self, case: &Case) -> Result<String, StudyError> {
+        let mut doc = self.case_scenario(case)?;
         let title = doc
             .get("title")
             .and_then(Value::as_str)
