@@ -591,6 +591,7 @@ mod tests {
             tip_passes_between_nodes_at_um: None,
             wall_time_s: 0.5,
             curve: Vec::new(),
+            shared_from: None,
         }
     }
 
