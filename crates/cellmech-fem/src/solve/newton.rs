@@ -60,12 +60,14 @@ impl Problem {
     /// caller restores it. `start_moved`: Newton starts away from the last converged state
     /// (an extrapolation, a guess path, or a state reached with viscous forces), so the
     /// relaxation blocks are re-equilibrated there first; at a converged state they already
-    /// are.
+    /// are. `energy_floor`: the least reference of the energy criterion (0: the work of the
+    /// first correction alone), left in `work.increment_energy` with the reference used.
     pub(super) fn newton_increment(
         &mut self,
         target_u: &[f64],
         target_f: &[f64],
         start_moved: bool,
+        energy_floor: f64,
         control: &StepControl,
         observer: &mut dyn Observer,
     ) -> Result<usize, FailureReason> {
@@ -123,7 +125,10 @@ impl Problem {
         // status change later in the increment then moves the body by far more: measured
         // against the tiny start, the round's energy ratio had to fall 12 orders below its
         // own first correction's, long after the residual criterion was met.
-        let mut energy_reference = self.correction_work();
+        // `energy_floor` (0: none) is the driver's estimate of the first correction's work
+        // from the converged start, for a start extrapolated close to the solution.
+        let mut energy_reference = self.correction_work().max(energy_floor);
+        self.work.increment_energy = energy_reference;
         // Quasi-Newton state: the residual before the last step, its norm, and whether the
         // tangent must be reformed at the next iteration.
         self.work.updates = 0;
@@ -183,6 +188,10 @@ impl Problem {
             let (residual_ratio, energy_ratio, scale) =
                 self.measure(&mut scale_floor, step_length, energy_reference);
             self.work.scale = scale;
+            if iteration == 0 && scale > 0.0 {
+                // What the first correction contracted: the start's residual.
+                previous_ratio = r0 / scale;
+            }
             // The next evaluation's tangent: exact where the terms lag it far from
             // equilibrium, once the residual says the state is close.
             self.set_near_equilibrium(residual_ratio <= NEAR_EQUILIBRIUM);
@@ -367,7 +376,14 @@ impl Problem {
         after_chord: bool,
         before: f64,
     ) -> bool {
-        if !conv.chord_near_convergence || iteration <= round_start || step_length != 1.0 {
+        // The increment's first correction is a full step of the first round too (from the
+        // start's residual, `before`): from an extrapolated start it can leave the residual
+        // within the window, where a chord step finishes what a second factorisation would.
+        let first_round_start = iteration == 0 && round_start == 0;
+        if !conv.chord_near_convergence
+            || (iteration <= round_start && !first_round_start)
+            || step_length != 1.0
+        {
             return false;
         }
         let Some(&now) = self.work.history.last() else {

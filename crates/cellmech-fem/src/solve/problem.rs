@@ -35,6 +35,9 @@ pub(super) struct Work {
     pub history: Vec<f64>,
     /// Force scale of the last measured iteration (nN).
     pub scale: f64,
+    /// The energy criterion's reference at the start of the last Newton increment (nN·µm):
+    /// the work of its first correction, or the floor it was given.
+    pub increment_energy: f64,
     /// Quasi-Newton: the residual before the last step (free DOFs).
     pub r_prev: Vec<f64>,
     /// Quasi-Newton update pairs (steps, residual changes), 1/(s·y), and the two-loop's α.
@@ -252,6 +255,7 @@ impl Problem {
                 magnitude: vec![0.0; n],
                 history: Vec::with_capacity(64),
                 scale: 0.0,
+                increment_energy: 0.0,
                 r_prev: Vec::new(),
                 qn_s: Vec::new(),
                 qn_y: Vec::new(),
@@ -429,6 +433,15 @@ impl Problem {
         // The step's last converged increment of displacement and its size, for the
         // extrapolated start of the next.
         let mut last_increment: Option<(Vec<f64>, f64)> = None;
+        // The energy criterion's reference of the step's last converged increment and its
+        // size. The reference is the work of an increment's first correction; from an
+        // extrapolated start that correction is only the extrapolation's error, so the
+        // criterion would ask for the last digits of a near-solution (the tension's stretch
+        // took a second factorisation per increment for it, with the residual 1e-9 of the
+        // force scale). An extrapolated increment's reference is at least the last one's,
+        // scaled by the square of the ratio of the increments (a converged start's first
+        // correction and residual both grow with the increment).
+        let mut last_energy: Option<(f64, f64)> = None;
         // A failed attempt is retried from the converged state: the extrapolation may be
         // what made it fail. The next converged increment extrapolates again.
         let mut extrapolate = true;
@@ -530,6 +543,7 @@ impl Problem {
             if let Some(st) = &mut self.stabilizer {
                 st.start_increment(&saved_u, t - time);
             }
+            let mut energy_floor = 0.0;
             let guessed = if let Some(guess) = &step.guess {
                 guess.write_at(t, &self.prescribed, &mut self.u);
                 true
@@ -546,6 +560,9 @@ impl Problem {
                     } else {
                         self.u[d] + ratio * du[d]
                     };
+                }
+                if let Some((energy, dt_energy)) = last_energy {
+                    energy_floor = energy * (dt / dt_energy).powi(2);
                 }
                 true
             } else {
@@ -565,7 +582,14 @@ impl Problem {
             } else {
                 control
             };
-            let outcome = self.newton_increment(&target_u, &target_f, guessed, attempt, observer);
+            let outcome = self.newton_increment(
+                &target_u,
+                &target_f,
+                guessed,
+                energy_floor,
+                attempt,
+                observer,
+            );
             if let (Ok(_), Some(g0), false) = (&outcome, g_prev, across_jump) {
                 if let Some(g) = overshot(gap(self), g0, overshoots) {
                     // Overshot the target: reject, and aim at the crossing.
@@ -581,6 +605,7 @@ impl Problem {
                     continue;
                 }
             }
+            let increment_energy = self.work.increment_energy;
             match outcome {
                 Ok(mut iterations) => {
                     let final_increment = t >= 1.0 - 1e-12;
@@ -624,6 +649,7 @@ impl Problem {
                         term.commit(&self.u, &self.dof_map);
                     }
                     extrapolate = true;
+                    last_energy = Some((increment_energy, t - time));
                     if control.extrapolation == Extrapolation::Linear {
                         let (du, dt_last) =
                             last_increment.get_or_insert_with(|| (vec![0.0; n], 0.0));
@@ -848,7 +874,7 @@ impl Problem {
         // equilibrium of its own: measured on the suspended-cell compression with MTs on an
         // elastic foundation, the re-solve then started at 0.12-0.44 of the force scale
         // instead of the viscous forces' 1e-5 and diverged (docs/stabilization.md).
-        match self.newton_increment(target_u, target_f, false, control, observer) {
+        match self.newton_increment(target_u, target_f, false, 0.0, control, observer) {
             Ok(more) => {
                 *iterations += more;
                 true
@@ -899,7 +925,7 @@ impl Problem {
             if let Some(st) = &mut self.stabilizer {
                 st.restart_from(&self.u, rate);
             }
-            match self.newton_increment(target_u, target_f, false, control, observer) {
+            match self.newton_increment(target_u, target_f, false, 0.0, control, observer) {
                 Ok(more) => {
                     *iterations += more;
                     let Some((increment, force)) = self.viscous_dissipation_and_force() else {

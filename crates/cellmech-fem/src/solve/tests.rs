@@ -556,37 +556,50 @@ fn an_extrapolated_start_is_exact_on_a_linear_path_and_changes_no_result() {
     assert!(without[1..].iter().all(|&c| c > 0.01), "{without:?}");
 }
 
-/// On a smooth nonlinear path (a pulled spring swung round by a growing lateral load)
-/// the extrapolated start reaches the same equilibrium in fewer iterations.
-#[test]
-fn an_extrapolated_start_saves_iterations_on_a_smooth_nonlinear_path() {
-    let run = |extrapolation: Extrapolation| {
-        let (mut p, mut step) = large_rotation_spring();
-        // First the axial load alone (4 nN along the spring), then the lateral one grows to
-        // 6 nN: the spring turns by atan(6/4) = 56 degrees while it stretches.
-        step.loads = vec![NodalLoad { dof: 3, value: 4.0 }];
-        p.run_step(&step, &mut Recorder::default()).unwrap();
-        let mut swing = step.clone();
-        swing.name = "swing".into();
-        swing.loads = vec![NodalLoad { dof: 4, value: 6.0 }];
-        swing.control.initial_increment = 0.1;
-        swing.control.max_increment = 0.1;
-        swing.control.extrapolation = extrapolation;
-        let mut rec = Recorder::default();
-        p.run_step(&swing, &mut rec).unwrap();
-        (p.u().to_vec(), rec.iterations.len())
-    };
-    let (plain, plain_iterations) = run(Extrapolation::None);
-    let (extrapolated, iterations) = run(Extrapolation::Linear);
+/// The large-rotation spring loaded along its axis (4 nN), then swung by a lateral load
+/// growing to 6 nN (it turns by atan(6/4) = 56 degrees while it stretches) in increments of
+/// `dt`, each started as `extrapolation` says (`newton`: full Newton, else the default
+/// method). The swing's equilibrium is checked against the closed form; returns the
+/// problem.
+fn swing(
+    dt: f64,
+    extrapolation: Extrapolation,
+    newton: bool,
+    observer: &mut dyn Observer,
+) -> Problem {
+    let (mut p, mut step) = large_rotation_spring();
+    step.loads = vec![NodalLoad { dof: 3, value: 4.0 }];
+    p.run_step(&step, &mut Recorder::default()).unwrap();
+    let mut swing = step.clone();
+    swing.name = "swing".into();
+    swing.loads = vec![NodalLoad { dof: 4, value: 6.0 }];
+    swing.control.initial_increment = dt;
+    swing.control.max_increment = dt;
+    swing.control.extrapolation = extrapolation;
+    if newton {
+        swing.control.convergence.method = IterationMethod::Newton;
+    }
+    p.run_step(&swing, observer).unwrap();
     // Equilibrium: the spring along the load (4, 6), N = |F| = k (l - 0.8).
     let f = (4.0f64 * 4.0 + 6.0 * 6.0).sqrt();
     let l = 0.8 + f / 10.0;
-    let (x, y) = (1.0 + extrapolated[3], extrapolated[4]);
+    let (x, y) = (1.0 + p.u()[3], p.u()[4]);
     assert!(
         (x - l * 4.0 / f).abs() < 1e-9 && (y - l * 6.0 / f).abs() < 1e-9,
         "x {x} y {y}"
     );
-    assert!((plain[3] - extrapolated[3]).abs() < 1e-9 && (plain[4] - extrapolated[4]).abs() < 1e-9);
+    p
+}
+
+/// On a smooth nonlinear path (a pulled spring swung round by a growing lateral load)
+/// the extrapolated start reaches the same equilibrium in fewer iterations.
+#[test]
+fn an_extrapolated_start_saves_iterations_on_a_smooth_nonlinear_path() {
+    let mut plain = Recorder::default();
+    swing(0.1, Extrapolation::None, false, &mut plain);
+    let mut extrapolated = Recorder::default();
+    swing(0.1, Extrapolation::Linear, false, &mut extrapolated);
+    let (iterations, plain_iterations) = (extrapolated.iterations.len(), plain.iterations.len());
     assert!(
         iterations < plain_iterations,
         "{iterations} iterations extrapolated, {plain_iterations} without"
@@ -1046,5 +1059,78 @@ fn a_cut_back_increment_is_not_stretched_back_to_the_size_that_failed() {
     assert_eq!(ends.len(), expected.len(), "{ends:?}");
     for (end, want) in ends.iter().zip(expected) {
         assert!((end - want).abs() < 1e-12, "{ends:?}");
+    }
+}
+
+/// [`swing`] in increments of `dt` from extrapolated starts, full Newton: the iteration
+/// reports of each increment.
+fn swing_in_small_increments(dt: f64) -> Vec<Vec<IterationReport>> {
+    let mut rec = Recorder::default();
+    swing(dt, Extrapolation::Linear, true, &mut rec);
+    let mut increments: Vec<Vec<IterationReport>> = Vec::new();
+    for r in &rec.iterations {
+        if r.iteration == 0 {
+            increments.push(Vec::new());
+        }
+        increments.last_mut().unwrap().push(*r);
+    }
+    assert_eq!(increments.len(), rec.increments.len());
+    increments
+}
+
+/// From an extrapolated start the first correction can leave the residual within the chord
+/// window, already contracted far below the start's: the rest of the increment is chord
+/// steps on that factorisation, one factorisation per increment instead of two (the
+/// suspended tension's stretch: 31 -> 23 factorisations).
+#[test]
+fn an_extrapolated_increment_finishes_on_its_first_factorisation() {
+    let window = CHORD_WINDOW * Convergence::default().residual_tolerance;
+    let increments = swing_in_small_increments(0.05);
+    let mut finished = 0;
+    for (k, inc) in increments.iter().enumerate().skip(1) {
+        if inc[0].residual_ratio <= window {
+            let factorizations = inc.iter().filter(|r| r.reformed).count();
+            assert_eq!(factorizations, 1, "increment {k}: {inc:?}");
+            assert!(inc[1..].iter().all(|r| r.chord), "increment {k}: {inc:?}");
+            finished += 1;
+        }
+    }
+    assert!(finished >= 10, "{finished} of {}", increments.len());
+}
+
+/// Records the energy criterion's reference of each converged increment.
+#[derive(Default)]
+struct EnergyReferences(Vec<f64>);
+
+impl Observer for EnergyReferences {
+    fn on_increment(&mut self, problem: &Problem, _report: &IncrementReport<'_>) {
+        self.0.push(problem.work.increment_energy);
+    }
+}
+
+/// The energy criterion of an extrapolated increment is measured against the work a
+/// converged start's first correction would have done (the last increment's, scaled by the
+/// square of the increments' ratio), not against the extrapolation's error, which is
+/// orders of magnitude smaller: against that, the criterion asked for digits far below the
+/// residual criterion's (the suspended tension's stretch spent a chord step per increment
+/// on them).
+#[test]
+fn an_extrapolated_increment_measures_energy_against_a_converged_starts_scale() {
+    let references = |extrapolation: Extrapolation| {
+        let mut rec = EnergyReferences::default();
+        swing(0.05, extrapolation, true, &mut rec);
+        rec.0
+    };
+    let converged = references(Extrapolation::None);
+    let extrapolated = references(Extrapolation::Linear);
+    assert_eq!(converged.len(), 20);
+    assert_eq!(extrapolated.len(), 20);
+    assert_eq!(converged[0], extrapolated[0]);
+    for k in 1..20 {
+        let ratio = extrapolated[k] / converged[k];
+        assert!(
+            (0.2..=5.0).contains(&ratio),
+            "increment {k}: {extrapolated:?} against {converged:?}"
+        );
     }
 }
