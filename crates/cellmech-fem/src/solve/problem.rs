@@ -437,7 +437,7 @@ impl Problem {
         // size. The reference is the work of an increment's first correction; from an
         // extrapolated start that correction is only the extrapolation's error, so the
         // criterion would ask for the last digits of a near-solution (the tension's stretch
-        // took a second factorisation per increment for it, with the residual 1e-9 of the
+        // spent a chord step per increment on them, with the residual already 1e-9 of the
         // force scale). An extrapolated increment's reference is at least the last one's,
         // scaled by the square of the ratio of the increments (a converged start's first
         // correction and residual both grow with the increment).

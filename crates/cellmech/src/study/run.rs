@@ -100,8 +100,9 @@ pub struct CaseRecord {
     /// The test curve.
     pub curve: Vec<CurvePoint>,
     /// The case folder this record and its outputs were copied from, when an identical
-    /// case of another study was run in the same pool (the outputs name that case in
-    /// their titles); `None` when the case was computed in its own folder.
+    /// case of another study was run in the same pool (the numbers, wall time included,
+    /// are that case's, and the outputs name it in their titles); `None` when the case was
+    /// computed in its own folder.
     #[serde(default)]
     pub shared_from: Option<String>,
 }
@@ -131,6 +132,20 @@ pub fn stable_hash(bytes: &[u8]) -> u64 {
 /// Stable shard of a case name (FNV-1a), so a case stays in its shard when cases are added.
 pub fn shard_of(name: &str, shards: usize) -> usize {
     (stable_hash(name.as_bytes()) % shards.max(1) as u64) as usize
+}
+
+/// What a case computes, as a stable hash: its scenario without the title (a label that
+/// changes no number) and the directory its relative paths resolve against. Two cases
+/// with the same key give the same results, so [`run_jobs`] runs them once.
+pub fn scenario_key(spec: &StudySpec, case: &Case) -> Result<u64, StudyError> {
+    let mut doc = spec.case_scenario(case)?;
+    doc.remove("title");
+    let text = toml::to_string(&doc).map_err(|e| StudyError::Case {
+        case: case.name.clone(),
+        message: e.to_string(),
+    })?;
+    let resolved = format!("{text}\n# resolved against {}", spec.base_dir.display());
+    Ok(stable_hash(resolved.as_bytes()))
 }
 
 /// The folder of a case.
@@ -172,7 +187,7 @@ pub struct CaseJob<'a> {
 
 /// Runs cases of one or several studies in one pool of `jobs` workers, each case with
 /// `threads_per_case` solver threads (0: the cores divided by the workers). Cases whose
-/// scenarios are the same ([`StudySpec::scenario_key`]: the controls of a disruption and a
+/// scenarios are the same ([`scenario_key`]: the controls of a disruption and a
 /// modulus study, for example) are computed once: the first unrecorded one runs, and the
 /// others get a copy of its folder with their own `case.toml` and a record naming the
 /// source (`shared_from`); an identical case recorded earlier is copied instead of run.
@@ -189,7 +204,7 @@ pub fn run_jobs(
     let mut keys: Vec<Option<u64>> = Vec::new();
     for (i, job) in jobs.iter().enumerate() {
         // A case whose scenario does not resolve runs alone (and reports why it fails).
-        let key = job.spec.scenario_key(job.case).ok();
+        let key = scenario_key(job.spec, job.case).ok();
         match keys.iter().position(|k| key.is_some() && *k == key) {
             Some(g) => groups[g].push(i),
             None => {

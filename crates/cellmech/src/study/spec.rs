@@ -776,21 +776,6 @@ impl StudySpec {
         Ok(doc)
     }
 
-    /// What a case computes, as a stable hash: its scenario without the title (a label
-    /// that changes no number) and the directory its relative paths resolve against. Two
-    /// cases with the same key give the same results, so a run of several studies runs
-    /// them once ([`super::run::run_jobs`]).
-    pub fn scenario_key(&self, case: &Case) -> Result<u64, StudyError> {
-        let mut doc = self.case_scenario(case)?;
-        doc.remove("title");
-        let text = toml::to_string(&doc).map_err(|e| StudyError::Case {
-            case: case.name.clone(),
-            message: e.to_string(),
-        })?;
-        let resolved = format!("{text}\n# resolved against {}", self.base_dir.display());
-        Ok(super::run::stable_hash(resolved.as_bytes()))
-    }
-
     /// The scenario document of a case.
     pub fn case_document(&self, case: &Case) -> Result<String, StudyError> {
         let mut doc = self.case_scenario(case)?;
