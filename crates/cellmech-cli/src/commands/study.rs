@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use cellmech::study::{
-    self, builtin, CaseEvent, CaseRecord, StudyOptions, StudyOutcome, StudyRun, StudySpec,
+    self, builtin, CaseEvent, CaseRecord, PoolOptions, StudyOutcome, StudyRun, StudySpec,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -154,8 +154,7 @@ pub fn study(args: &StudyArgs) -> anyhow::Result<ExitCode> {
                 bar.set_message(format!("{}: {what}", record.name));
             }
         };
-        let options = StudyOptions {
-            out: args.out.clone(),
+        let options = PoolOptions {
             jobs: args.jobs.max(1),
             threads_per_case: 0,
             shard: args.shard,

@@ -20,7 +20,7 @@ pub mod spec;
 
 use std::path::{Path, PathBuf};
 
-pub use run::{CaseEvent, CaseRecord, StudyOptions};
+pub use run::{CaseEvent, CaseRecord, PoolOptions, StudyOptions};
 pub use spec::{Case, StudyError, StudySpec};
 
 /// A study's outcome in this invocation.
@@ -89,7 +89,7 @@ pub fn run_study(
         text: study_text,
         out: options.out.clone(),
     };
-    let mut outcomes = run_studies(&[run], options, on_case)?;
+    let mut outcomes = run_studies(&[run], &options.pool(), on_case)?;
     Ok(outcomes.remove(0))
 }
 
@@ -105,14 +105,14 @@ pub struct StudyRun<'a> {
 }
 
 /// Runs several studies in one pool of `options.jobs` workers (their shard when
-/// `options.shard` is set; `options.out` is not used: each study has its own), then writes
+/// `options.shard` is set), each into its own output directory, then writes
 /// each study's report. One pool keeps every worker busy until the last case of all the
 /// studies, where studies run one after another each leave cores idle at their end; and a
 /// case that two studies share (their controls) is computed once
 /// ([`run::run_jobs`]). Cases are taken in the order of the studies and of their cases.
 pub fn run_studies(
     runs: &[StudyRun<'_>],
-    options: &StudyOptions,
+    options: &PoolOptions,
     on_case: &(dyn Fn(&CaseRecord, CaseEvent) + Sync),
 ) -> Result<Vec<StudyOutcome>, StudyError> {
     let mut cases = Vec::with_capacity(runs.len());

@@ -30,6 +30,28 @@ pub struct StudyOptions {
     pub shard: Option<(usize, usize)>,
 }
 
+/// How a pool runs cases, whatever study they come from.
+#[derive(Debug, Clone, Copy)]
+pub struct PoolOptions {
+    /// Cases run at once (≥ 1).
+    pub jobs: usize,
+    /// Solver threads per case (0: the machine's cores divided by `jobs`, at least 1).
+    pub threads_per_case: usize,
+    /// Run only shard `k` of `n` (0-based): a stable subset by case name.
+    pub shard: Option<(usize, usize)>,
+}
+
+impl StudyOptions {
+    /// The pool part of the options (all but the output directory).
+    pub fn pool(&self) -> PoolOptions {
+        PoolOptions {
+            jobs: self.jobs,
+            threads_per_case: self.threads_per_case,
+            shard: self.shard,
+        }
+    }
+}
+
 /// A point of a case's test curve (for the overlaid curves).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct CurvePoint {
