@@ -11,8 +11,10 @@
 //!
 //! 1. **Where the gel goes.** The model without those families runs its first step alone
 //!    (their nodes are then held by nothing and not in the problem). Each of their nodes
-//!    is carried with the material point it lies in: a continuum node moves with its own
-//!    displacement, any other node with the interpolated displacement of its host hex8.
+//!    is carried as the model moves it: a continuum node with its own displacement, a
+//!    node the model ties to others (an FA plaque's reference node, where the filaments
+//!    end) with its masters', a node tied over a ball with the ball's mean, any other node
+//!    with the interpolated displacement of the hex8 it lies in.
 //! 2. **Filaments born there.** In the model itself the families' stress-free geometry
 //!    follows the recorded path during the first step, piecewise linear in its time through
 //!    the recorded increments (`cellmech_fem::element::beam::ReferenceMorph`), while the
@@ -164,11 +166,17 @@ fn carried_positions(
             })
             .map(|e| e.radius)
     };
+    // Nodes the model ties to others (an FA plaque's reference node, where the filaments
+    // end) move with their masters in the model itself, not with the material point they
+    // happen to lie in.
+    let tied = |n: usize| model.hanging.iter().find(|h| h.node == n);
     // Each node's host nodes and weights (itself with weight 1 for a continuum node).
     let mut hosts: Vec<(usize, Vec<(usize, f64)>)> = Vec::with_capacity(nodes.len());
     for &n in &nodes {
         if locator.is_host_node(n) {
             hosts.push((n, vec![(n, 1.0)]));
+        } else if let Some(tie) = tied(n) {
+            hosts.push((n, tie.masters.clone()));
         } else if let Some(weights) = ball_radius(n)
             .map(|r| ball_weights(&locator, mesh.nodes[n], r))
             .filter(|w| !w.is_empty())
