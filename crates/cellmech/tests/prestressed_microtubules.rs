@@ -87,7 +87,7 @@ fn microtubules_born_in_the_prestressed_cell_end_the_prestress_unstressed() {
 }
 
 /// An MT ends on its FA plaque's reference node, which the model ties to the plaque's
-/// nodes (`fa_reference = "separate"`, the default), not to the gel the node lies in (0.4 µm
+/// nodes (`fa_reference = "separate"`, the default), not to the gel the node lies in (0.1 µm
 /// under the surface at a 3.5 µm plaque's centroid): the first pass must carry it with the
 /// plaque. On the coarse cell the default 3.5 µm plaques hold one node each, where both
 /// coincide; 6 µm plaques hold several. Measured: MT forces within 1.2e-8 nN after 2 Newton
