@@ -20,7 +20,7 @@ pub mod spec;
 
 use std::path::{Path, PathBuf};
 
-pub use run::{CaseEvent, CaseRecord, PoolOptions, StudyOptions};
+pub use run::{CaseEvent, CaseRecord, PoolOptions};
 pub use spec::{Case, StudyError, StudySpec};
 
 /// A study's outcome in this invocation.
@@ -76,20 +76,21 @@ pub fn load(name_or_path: &str) -> Result<(StudySpec, String), StudyError> {
     Ok((spec::load(path)?, text))
 }
 
-/// Runs a study (its shard when `options.shard` is set), then writes the report over every
-/// case recorded in `options.out` so far.
+/// Runs a study into `out` (cases go to `OUT/cases/NAME`; its shard when `options.shard`
+/// is set), then writes the report over every case recorded in `out` so far.
 pub fn run_study(
     spec: &StudySpec,
     study_text: &str,
-    options: &StudyOptions,
+    out: &Path,
+    options: &PoolOptions,
     on_case: &(dyn Fn(&CaseRecord, CaseEvent) + Sync),
 ) -> Result<StudyOutcome, StudyError> {
     let run = StudyRun {
         spec,
         text: study_text,
-        out: options.out.clone(),
+        out: out.to_path_buf(),
     };
-    let mut outcomes = run_studies(&[run], &options.pool(), on_case)?;
+    let mut outcomes = run_studies(&[run], options, on_case)?;
     Ok(outcomes.remove(0))
 }
 

@@ -17,19 +17,6 @@ pub const RECORD: &str = "record.json";
 /// Name of a case's scenario file.
 pub const CASE_FILE: &str = "case.toml";
 
-/// How to run a study.
-#[derive(Debug, Clone)]
-pub struct StudyOptions {
-    /// Output directory (cases go to `OUT/cases/NAME`).
-    pub out: PathBuf,
-    /// Cases run at once (≥ 1).
-    pub jobs: usize,
-    /// Solver threads per case (0: the machine's cores divided by `jobs`, at least 1).
-    pub threads_per_case: usize,
-    /// Run only shard `k` of `n` (0-based): a stable subset by case name.
-    pub shard: Option<(usize, usize)>,
-}
-
 /// How a pool runs cases, whatever study they come from.
 #[derive(Debug, Clone, Copy)]
 pub struct PoolOptions {
@@ -39,17 +26,6 @@ pub struct PoolOptions {
     pub threads_per_case: usize,
     /// Run only shard `k` of `n` (0-based): a stable subset by case name.
     pub shard: Option<(usize, usize)>,
-}
-
-impl StudyOptions {
-    /// The pool part of the options (all but the output directory).
-    pub fn pool(&self) -> PoolOptions {
-        PoolOptions {
-            jobs: self.jobs,
-            threads_per_case: self.threads_per_case,
-            shard: self.shard,
-        }
-    }
 }
 
 /// A point of a case's test curve (for the overlaid curves).
